@@ -1,0 +1,54 @@
+# The two commands that matter: `make book` and `make test`. Every target sets up
+# .venv from requirements.txt first when it is missing or older than requirements.txt.
+
+PYTHON ?= python3
+VENV   := .venv
+BIN    := $(VENV)/bin
+STAMP  := $(VENV)/.installed
+ISOLATED := $(BIN)/python -m rosbook.isolation --
+
+LAB ?= lab01_nodes_topics
+SUBMISSIONS ?= submissions
+OUT ?= grading
+
+.PHONY: book test lab check labs grade bench lint clean
+
+$(STAMP): requirements.txt pyproject.toml
+	@$(PYTHON) -c 'import platform, sys; ok = sys.platform == "linux" and platform.machine() == "x86_64" and (3, 10) <= sys.version_info[:2] <= (3, 13); ok or sys.exit("ROS 2 Jazzy wheels exist for Linux x86_64 with Python 3.10-3.13 only; this is %s %s with Python %d.%d (see README: Mac and Windows)" % (sys.platform, platform.machine(), *sys.version_info[:2]))'
+	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
+	$(BIN)/python -m pip install --quiet --disable-pip-version-check -r requirements.txt
+	touch $(STAMP)
+
+## book: build the HTML book into _build/html, every cell executed (cached)
+book: $(STAMP)
+	$(ISOLATED) $(BIN)/jupyter-book build --all -W -n --keep-going .
+
+## test: the whole test suite (library, labs round trip, grader, book build)
+test: $(STAMP)
+	$(ISOLATED) $(BIN)/python -m pytest
+
+## lab: JupyterLab on the student labs, in a ROS domain of its own
+lab: $(STAMP)
+	$(ISOLATED) $(BIN)/jupyter lab labs/
+
+## check: a student's self-check of LAB before submitting
+check: $(STAMP)
+	$(BIN)/python -m autograder check $(LAB)
+
+## labs: regenerate labs/ from solutions/
+labs: $(STAMP)
+	$(BIN)/python -m autograder labs
+
+## grade: grade SUBMISSIONS/<student>/<lab>/<lab>.ipynb into OUT/
+grade: $(STAMP)
+	$(BIN)/python -m autograder grade $(SUBMISSIONS) --out $(OUT)
+
+## bench: performance figures, printed and written to _build/bench.json
+bench: $(STAMP)
+	$(BIN)/python -m benchmarks
+
+lint: $(STAMP)
+	$(BIN)/ruff check rosbook autograder tests benchmarks solutions
+
+clean:
+	rm -rf _build grading

@@ -1,0 +1,1 @@
+"""The course's grader: isolated, parallel nbgrader autograding of real rclpy code."""

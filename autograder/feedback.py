@@ -1,0 +1,77 @@
+"""Feedback a student reads: nbgrader's HTML, minus hidden tests, plus plain notices."""
+
+from __future__ import annotations
+
+import html
+import re
+from pathlib import Path
+from typing import Any
+
+from nbconvert.preprocessors import Preprocessor
+from nbformat import NotebookNode
+
+_ANSI = re.compile(r"\x1b\[[0-9;]*m")
+
+
+def is_test_cell(cell: NotebookNode) -> bool:
+    meta = cell.get("metadata", {}).get("nbgrader", {})
+    return bool(meta.get("grade")) and not meta.get("solution") and cell.cell_type == "code"
+
+
+class ShortenTestTracebacks(Preprocessor):  # type: ignore[misc]
+    """A failing test cell shows its error message only.
+
+    A traceback through a test cell quotes the failing line, which may be a hidden
+    test; the checks' messages already say what was expected and what was seen.
+    """
+
+    def preprocess_cell(
+        self, cell: NotebookNode, resources: dict[str, Any], index: int
+    ) -> tuple[NotebookNode, dict[str, Any]]:
+        if is_test_cell(cell):
+            for output in cell.get("outputs", []):
+                if output.output_type == "error":
+                    message = _ANSI.sub("", f"{output.ename}: {output.evalue}").rstrip(": ")
+                    output.traceback = [message]
+        return cell, resources
+
+
+NOTICE_STYLE = (
+    "margin:1em 0;padding:.8em 1em;border-left:6px solid {color};background:#fafafa;"
+    "font-family:sans-serif;white-space:pre-wrap"
+)
+COLORS = {"ok": "#2e7d32", "timeout": "#ef6c00", "tampered": "#c62828"}
+
+
+def notice_html(title: str, message: str, status: str) -> str:
+    style = NOTICE_STYLE.format(color=COLORS.get(status, "#c62828"))
+    return (
+        f'<div class="grader-notice" style="{style}"><strong>{html.escape(title)}</strong>'
+        f"\n{html.escape(message)}</div>"
+    )
+
+
+def add_notice(feedback_html: Path, title: str, message: str, status: str) -> None:
+    """Put a notice at the top of an nbgrader feedback page."""
+    page = feedback_html.read_text(encoding="utf-8")
+    page = re.sub(
+        r"(<body[^>]*>)",
+        lambda m: m.group(1) + notice_html(title, message, status),
+        page,
+        count=1,
+    )
+    feedback_html.write_text(page, encoding="utf-8")
+
+
+def write_notice_page(
+    path: Path, student_id: str, assignment_id: str, title: str, message: str, status: str
+) -> None:
+    """Feedback for a submission nbgrader could not grade (missing, broken, killed)."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    heading = html.escape(f"{assignment_id}: feedback for {student_id}")
+    path.write_text(
+        "<!DOCTYPE html>\n<html><head><meta charset='utf-8'>"
+        f"<title>{heading}</title></head><body>"
+        f"<h1>{heading}</h1>{notice_html(title, message, status)}</body></html>\n",
+        encoding="utf-8",
+    )

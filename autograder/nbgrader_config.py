@@ -1,0 +1,33 @@
+"""nbgrader configuration of the course (the one place it is set).
+
+The grader and ``make labs`` load this file; an instructor running nbgrader by hand
+uses it with ``nbgrader <command> --config autograder/nbgrader_config.py``.
+"""
+
+c = get_config()  # type: ignore[name-defined]  # noqa: F821 (provided by traitlets)
+
+# solutions/<lab>/<lab>.ipynb is the instructor's source, labs/<lab>/<lab>.ipynb the release.
+c.CourseDirectory.source_directory = "solutions"
+c.CourseDirectory.release_directory = "labs"
+c.CourseDirectory.course_id = "ros2-course-book"
+
+c.ClearSolutions.code_stub = {"python": "# YOUR CODE HERE\nraise NotImplementedError()"}
+c.ClearSolutions.text_stub = "YOUR ANSWER HERE"
+
+# A student cell that never returns is interrupted after this many seconds; the
+# notebook goes on with the next cell (the grader's --timeout overrides it).
+c.Execute.timeout = 30
+c.Execute.interrupt_on_timeout = True
+c.Execute.allow_errors = True
+
+# A test cell the student deleted is put back (and the submission marked tampered).
+c.OverwriteCells.add_missing_cells = True
+
+# Feedback never shows hidden tests: their source is removed, and a failing test
+# cell shows only its error message, not a traceback through hidden lines.
+c.GenerateFeedback.preprocessors = [
+    "nbgrader.preprocessors.GetGrades",
+    "nbgrader.preprocessors.ClearHiddenTests",
+    "autograder.feedback.ShortenTestTracebacks",
+    "nbconvert.preprocessors.CSSHTMLHeaderPreprocessor",
+]

@@ -1,0 +1,168 @@
+"""Grade one submission in its own scratch course (run as a process by ``grade``).
+
+``python -m autograder.worker JOB.json`` reads the job, autogrades the notebook with
+nbgrader, writes feedback and leaves ``result.json`` beside the job. Its environment
+(the ROS domain above all) is set by the parent, which also enforces the wall limit.
+"""
+
+from __future__ import annotations
+
+import json
+import shutil
+import sys
+from dataclasses import asdict, dataclass
+from pathlib import Path
+
+import nbformat
+from nbgrader.api import Gradebook, MissingEntry
+from nbgrader.utils import compute_checksum
+
+from autograder.course import api
+from autograder.feedback import add_notice, is_test_cell
+
+
+@dataclass
+class Job:
+    template: str  # course root holding gradebook.db and release/<assignment>/
+    assignment_id: str
+    student_id: str
+    submission_dir: str  # the student's <assignment> folder
+    notebook: str  # file name of the notebook
+    scratch: str  # this submission's own course root
+    feedback: str  # where its feedback HTML goes
+    cell_timeout: int
+
+
+@dataclass
+class Result:
+    score: float
+    max_score: float
+    status: str
+    message: str = ""
+
+
+def locked_cell_changes(submitted: nbformat.NotebookNode, released: nbformat.NotebookNode) -> list[str]:
+    """grade_ids of locked cells (tests, set-up, instructions) the student changed or removed."""
+    by_id = {}
+    for cell in submitted.cells:
+        grade_id = cell.get("metadata", {}).get("nbgrader", {}).get("grade_id")
+        if grade_id:
+            by_id[grade_id] = cell
+    changed = []
+    for cell in released.cells:
+        meta = cell.get("metadata", {}).get("nbgrader", {})
+        if not meta.get("locked") or meta.get("solution"):
+            continue
+        theirs = by_id.get(meta["grade_id"])
+        if theirs is None or compute_checksum(theirs) != compute_checksum(cell):
+            changed.append(meta["grade_id"])
+    return changed
+
+
+def timed_out_cells(notebook: nbformat.NotebookNode) -> list[str]:
+    """Cells nbgrader interrupted because they ran past the per-cell limit."""
+    found = []
+    for index, cell in enumerate(notebook.cells):
+        for output in cell.get("outputs", []):
+            if output.get("output_type") == "error" and output.get("ename") == "CellTimeoutError":
+                meta = cell.get("metadata", {}).get("nbgrader", {})
+                found.append(meta.get("grade_id") or f"cell {index + 1}")
+    return found
+
+
+def exit_calls(notebook: nbformat.NotebookNode) -> list[str]:
+    """Student cells that may kill the kernel (os._exit, sys.exit, exit, quit)."""
+    suspects = ("os._exit(", "sys.exit(", "exit(", "quit(", "os.kill(")
+    found = []
+    for index, cell in enumerate(notebook.cells):
+        if cell.cell_type == "code" and not is_test_cell(cell):
+            source = "".join(cell.source)
+            for line in source.splitlines():
+                code = line.split("#", 1)[0]
+                if any(s in code for s in suspects) and "rclpy" not in code:
+                    meta = cell.get("metadata", {}).get("nbgrader", {})
+                    found.append(f"{meta.get('grade_id') or f'cell {index + 1}'}: {line.strip()}")
+    return found
+
+
+def grade(job: Job) -> Result:
+    scratch = Path(job.scratch)
+    template = Path(job.template)
+    submitted_dir = scratch / "submitted" / job.student_id / job.assignment_id
+    shutil.copytree(job.submission_dir, submitted_dir)
+    shutil.copy(template / "gradebook.db", scratch / "gradebook.db")
+    notebook_path = submitted_dir / job.notebook
+
+    released = nbformat.read(template / "release" / job.assignment_id / job.notebook, as_version=4)
+    submitted = nbformat.read(notebook_path, as_version=4)
+    tampered = locked_cell_changes(submitted, released)
+
+    grader = api(scratch, **{"Execute.timeout": job.cell_timeout})
+    outcome = grader.autograde(job.assignment_id, job.student_id, force=True, create=True)
+    if not outcome["success"]:
+        log = outcome.get("log", "") + outcome.get("error", "")
+        if "DeadKernelError" in log or "Kernel died" in log or "kernel died" in log:
+            culprits = exit_calls(submitted)
+            where = f" Suspect line(s): {'; '.join(culprits)}." if culprits else ""
+            return Result(0, 0, "error", "The Python kernel running your notebook died, so "
+                          "no check could run after that. A cell must never end the "
+                          f"interpreter (os._exit, sys.exit, exit()).{where}")
+        tail = "\n".join(log.strip().splitlines()[-12:])
+        return Result(0, 0, "error", f"nbgrader could not grade this notebook:\n{tail}")
+
+    with Gradebook(f"sqlite:///{scratch / 'gradebook.db'}") as gb:
+        try:
+            sub = gb.find_submission_notebook(
+                Path(job.notebook).stem, job.assignment_id, job.student_id
+            )
+        except MissingEntry:
+            return Result(0, 0, "error", "nbgrader recorded no grades for this notebook")
+        score, max_score = float(sub.score), float(sub.max_score)
+
+    autograded = nbformat.read(
+        scratch / "autograded" / job.student_id / job.assignment_id / job.notebook, as_version=4
+    )
+    slow = timed_out_cells(autograded)
+
+    feedback = grader.generate_feedback(job.assignment_id, job.student_id, force=True)
+    page = scratch / "feedback" / job.student_id / job.assignment_id / (
+        Path(job.notebook).stem + ".html"
+    )
+    if not feedback["success"] or not page.exists():
+        tail = "\n".join((feedback.get("log", "") + feedback.get("error", "")).splitlines()[-8:])
+        return Result(score, max_score, "error", f"feedback could not be generated:\n{tail}")
+
+    if tampered:
+        status = "tampered"
+        message = (
+            "Locked cells were changed or removed: " + ", ".join(tampered) + ". They were "
+            "restored from the original and your work was graded with the original checks; "
+            "your instructor sees this submission marked 'tampered'."
+        )
+        add_notice(page, "Locked cells changed", message, status)
+    elif slow:
+        status = "timeout"
+        message = (
+            f"These cells ran longer than {job.cell_timeout} s and were interrupted: "
+            + ", ".join(slow)
+            + ". Look for a loop that never ends or a spin without a timeout."
+        )
+        add_notice(page, "Cells interrupted", message, status)
+    else:
+        status, message = "ok", ""
+    destination = Path(job.feedback)
+    destination.parent.mkdir(parents=True, exist_ok=True)
+    shutil.copy(page, destination)
+    return Result(score, max_score, status, message)
+
+
+def main(argv: list[str]) -> int:
+    job_path = Path(argv[0])
+    job = Job(**json.loads(job_path.read_text()))
+    result = grade(job)
+    (job_path.parent / "result.json").write_text(json.dumps(asdict(result)))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1:]))
