@@ -19,10 +19,15 @@ def main(argv: list[str] | None = None) -> int:
     g.add_argument("--assignment", help="grade only this lab (default: every lab found)")
     g.add_argument("--workers", type=int, default=2, help="submissions graded at once")
     g.add_argument("--out", type=Path, default=Path("grading"), help="where results go")
-    g.add_argument("--timeout", type=int, default=30,
-                   help="seconds one cell may run before it is interrupted")
-    g.add_argument("--submission-timeout", type=float, default=600.0,
-                   help="seconds one submission may take in all before it is stopped")
+    g.add_argument(
+        "--timeout", type=int, default=30, help="seconds one cell may run before it is interrupted"
+    )
+    g.add_argument(
+        "--submission-timeout",
+        type=float,
+        default=600.0,
+        help="seconds one submission may take in all before it is stopped",
+    )
 
     labs = sub.add_parser("labs", help="regenerate labs/ from solutions/")
     labs.add_argument("ids", nargs="*", help="labs to regenerate (default: all)")
@@ -36,14 +41,22 @@ def main(argv: list[str] | None = None) -> int:
         from autograder.grade import STATUSES, GradingError, grade_class
 
         try:
-            rows = grade_class(args.submissions, args.out, args.assignment, args.workers,
-                               args.timeout, args.submission_timeout)
+            rows = grade_class(
+                args.submissions,
+                args.out,
+                args.assignment,
+                args.workers,
+                args.timeout,
+                args.submission_timeout,
+            )
         except GradingError as exc:
             print(f"error: {exc}", file=sys.stderr)
             return 2
         for row in rows:
-            print(f"{row.student_id:<20} {row.assignment_id:<24} "
-                  f"{row.score:g}/{row.max_score:g}  {row.status}")
+            print(
+                f"{row.student_id:<20} {row.assignment_id:<24} "
+                f"{row.score:g}/{row.max_score:g}  {row.status}"
+            )
         counts = ", ".join(f"{sum(r.status == s for r in rows)} {s}" for s in STATUSES)
         print(f"{len(rows)} submissions graded ({counts}); see {args.out / 'grades.csv'}")
         return 0

@@ -55,7 +55,8 @@ def error_message(cell: nbformat.NotebookNode) -> str:
         if output.output_type == "error":
             return f"{output.ename}: {output.evalue}".translate(ANSI_FREE)
         if output.output_type == "stream" and output.name == "stderr":
-            return "wrote to stderr (a graded check fails when it does): " + output.text.strip()[:200]
+            text = output.text.strip()[:200]
+            return f"wrote to stderr (a graded check fails when it does): {text}"
     return ""
 
 
@@ -77,14 +78,18 @@ def check(path: Path, cell_timeout: int = 30) -> tuple[list[CheckResult], list[s
 
 def report(path: Path, results: list[CheckResult], changed: list[str]) -> str:
     passed = sum(r.passed for r in results)
-    lines = [f"{path.name}: {passed} of {len(results)} visible checks pass "
-             "(hidden checks run when the lab is graded)"]
+    lines = [
+        f"{path.name}: {passed} of {len(results)} visible checks pass "
+        "(hidden checks run when the lab is graded)"
+    ]
     for r in results:
         mark = "PASS" if r.passed else "FAIL"
         lines.append(f"  {mark}  {r.grade_id:<28} {r.points:g}/{r.max_points:g}")
         if not r.passed:
             lines.extend("        " + line for line in (r.message or "no output").splitlines())
     if changed:
-        lines.append("  WARNING: these locked cells differ from the released lab and will be "
-                     "restored before grading: " + ", ".join(changed))
+        lines.append(
+            "  WARNING: these locked cells differ from the released lab and will be "
+            "restored before grading: " + ", ".join(changed)
+        )
     return "\n".join(lines)

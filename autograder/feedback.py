@@ -9,6 +9,7 @@ from typing import Any
 
 from nbconvert.preprocessors import Preprocessor
 from nbformat import NotebookNode
+from traitlets import Bool
 
 _ANSI = re.compile(r"\x1b\[[0-9;]*m")
 
@@ -24,6 +25,8 @@ class ShortenTestTracebacks(Preprocessor):  # type: ignore[misc]
     A traceback through a test cell quotes the failing line, which may be a hidden
     test; the checks' messages already say what was expected and what was seen.
     """
+
+    enabled = Bool(True)  # nbconvert preprocessors are off unless enabled
 
     def preprocess_cell(
         self, cell: NotebookNode, resources: dict[str, Any], index: int

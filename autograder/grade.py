@@ -10,6 +10,9 @@ from __future__ import annotations
 
 import csv
 import json
+import os
+import queue
+import select
 import subprocess
 import sys
 import tempfile
@@ -25,7 +28,7 @@ from autograder.config import lab_ids
 from autograder.course import generate
 from autograder.feedback import write_notice_page
 from autograder.worker import Job
-from rosbook.isolation import kill_marked, kill_process_group, reserve_domain
+from rosbook.isolation import RUN_MARKER, kill_marked, kill_process_group, reserve_domain
 
 STATUSES = ("ok", "timeout", "error", "missing", "tampered")
 CSV_HEADER = ["student_id", "assignment_id", "score", "max_score", "status"]
@@ -67,6 +70,7 @@ def prepare(assignment_id: str, work: Path) -> Assignment:
 
 
 def grade_one(
+    slot: WorkerSlot,
     assignment: Assignment,
     student_id: str,
     submissions: Path,
@@ -88,8 +92,15 @@ def grade_one(
                 status, "Could not grade"
             )
             write_notice_page(feedback, student_id, aid, title, message, status)
-        return Row(student_id, aid, score, assignment.max_score, status, message,
-                   round(time.monotonic() - started, 2))
+        return Row(
+            student_id,
+            aid,
+            score,
+            assignment.max_score,
+            status,
+            message,
+            round(time.monotonic() - started, 2),
+        )
 
     if not notebook.is_file():
         found = sorted(p.name for p in folder.glob("*")) if folder.is_dir() else []
@@ -100,60 +111,144 @@ def grade_one(
         nbformat.read(notebook, as_version=4)
     except Exception as exc:  # not JSON, or not a notebook: say what is wrong
         detail = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
-        return finish(0, "error", f"{assignment.notebook} is not a valid notebook: {detail}. "
-                      "Was it saved from Jupyter, or edited by hand?")
+        return finish(
+            0,
+            "error",
+            f"{assignment.notebook} is not a valid notebook: {detail}. "
+            "Was it saved from Jupyter, or edited by hand?",
+        )
 
     scratch = work / "runs" / student_id / aid
     scratch.mkdir(parents=True)
-    job = Job(str(assignment.template), aid, student_id, str(folder), assignment.notebook,
-              str(scratch / "course"), str(feedback), cell_timeout)
-    job_file = scratch / "job.json"
-    job_file.write_text(json.dumps(asdict(job)))
     log_file = out / "logs" / student_id / f"{aid}.log"
     log_file.parent.mkdir(parents=True, exist_ok=True)
-
-    with reserve_domain() as domain, open(log_file, "w") as log:
-        proc = subprocess.Popen(
-            [sys.executable, "-m", "autograder.worker", str(job_file)],
-            env=domain.env(), stdout=log, stderr=subprocess.STDOUT, start_new_session=True,
+    with reserve_domain() as domain:
+        job = Job(
+            str(assignment.template),
+            aid,
+            student_id,
+            str(folder),
+            assignment.notebook,
+            str(scratch / "course"),
+            str(feedback),
+            cell_timeout,
+            env=domain.env({}),
+            log=str(log_file),
         )
-        try:
-            proc.wait(timeout=submission_timeout)
-            killed = False
-        except subprocess.TimeoutExpired:
-            killed = True
-        finally:
-            kill_process_group(proc)
-            kill_marked(domain.token)  # the kernel and any node it started
-    if killed:
-        return finish(0, "timeout", f"Grading was stopped after {submission_timeout:.0f} s: "
-                      "the notebook as a whole ran too long (a cell that never ends, or "
-                      "many slow ones). No score could be computed.")
-    result_file = scratch / "result.json"
-    if not result_file.exists():
-        tail = "\n".join(log_file.read_text(errors="replace").strip().splitlines()[-10:])
-        return finish(0, "error", f"The grader failed on this submission:\n{tail}")
-    result = json.loads(result_file.read_text())
+        result = slot.run(job, submission_timeout)
+    if result is None:
+        return finish(
+            0,
+            "timeout",
+            f"Grading was stopped after {submission_timeout:.0f} s: "
+            "the notebook as a whole ran too long (a cell that never ends, or "
+            "many slow ones). No score could be computed.",
+        )
     return finish(result["score"], result["status"], result["message"])
+
+
+class WorkerSlot:
+    """One long-lived worker process; replaced when it has to be killed."""
+
+    def __init__(self) -> None:
+        self.proc: subprocess.Popen[bytes] | None = None
+        self.results: int | None = None
+
+    def _start(self) -> None:
+        read_end, write_end = os.pipe()
+        self.proc = subprocess.Popen(
+            [sys.executable, "-m", "autograder.worker", str(write_end)],
+            stdin=subprocess.PIPE,
+            stdout=subprocess.DEVNULL,
+            stderr=subprocess.DEVNULL,
+            pass_fds=(write_end,),
+            start_new_session=True,
+        )
+        os.close(write_end)
+        self.results = read_end
+
+    def run(self, job: Job, timeout: float) -> dict[str, object] | None:
+        """The worker's result for ``job``, or None when it overran ``timeout``."""
+        if self.proc is None or self.proc.poll() is not None:
+            self.stop()
+            self._start()
+        assert self.proc is not None and self.proc.stdin is not None
+        self.proc.stdin.write((json.dumps(asdict(job)) + "\n").encode())
+        self.proc.stdin.flush()
+        line = self._read_line(timeout)
+        token = job.env[RUN_MARKER]
+        if line is None:
+            self.stop()
+            kill_marked(token)
+            return None
+        kill_marked(token, exclude={self.proc.pid})  # the kernel and the nodes it started
+        if not line:  # the worker itself died
+            self.stop()
+            tail = "\n".join(Path(job.log).read_text(errors="replace").splitlines()[-10:])
+            return {
+                "score": 0,
+                "status": "error",
+                "message": f"The grader's worker died on this submission:\n{tail}",
+            }
+        return json.loads(line)
+
+    def _read_line(self, timeout: float) -> bytes | None:
+        """One line from the worker; b"" when it died, None on timeout."""
+        assert self.results is not None
+        deadline = time.monotonic() + timeout
+        buffer = b""
+        while not buffer.endswith(b"\n"):
+            remaining = deadline - time.monotonic()
+            if remaining <= 0:
+                return None
+            ready, _, _ = select.select([self.results], [], [], remaining)
+            if ready:
+                chunk = os.read(self.results, 65536)
+                if not chunk:
+                    return b""
+                buffer += chunk
+        return buffer
+
+    def stop(self) -> None:
+        if self.proc is not None:
+            if self.proc.stdin is not None:
+                self.proc.stdin.close()
+            kill_process_group(self.proc)
+            self.proc = None
+        if self.results is not None:
+            os.close(self.results)
+            self.results = None
 
 
 def discover(submissions: Path, assignment_id: str | None) -> tuple[list[str], list[str]]:
     if not submissions.is_dir():
-        raise GradingError(f"{submissions} is not a folder of submissions "
-                           "(expected SUBMISSIONS/<student_id>/<assignment_id>/<notebook>.ipynb)")
-    students = sorted(p.name for p in submissions.iterdir()
-                      if p.is_dir() and not p.name.startswith("."))
+        raise GradingError(
+            f"{submissions} is not a folder of submissions "
+            "(expected SUBMISSIONS/<student_id>/<assignment_id>/<notebook>.ipynb)"
+        )
+    students = sorted(
+        p.name for p in submissions.iterdir() if p.is_dir() and not p.name.startswith(".")
+    )
     known = lab_ids()
     if assignment_id is not None:
         if assignment_id not in known:
-            raise GradingError(f"unknown assignment {assignment_id!r}; the labs are: "
-                               + ", ".join(known))
+            raise GradingError(
+                f"unknown assignment {assignment_id!r}; the labs are: " + ", ".join(known)
+            )
         return students, [assignment_id]
-    found = sorted({p.name for s in students for p in (submissions / s).iterdir()
-                    if p.is_dir() and p.name in known})
+    found = sorted(
+        {
+            p.name
+            for s in students
+            for p in (submissions / s).iterdir()
+            if p.is_dir() and p.name in known
+        }
+    )
     if not found:
-        raise GradingError(f"no folder in {submissions}/<student_id>/ is named after a lab "
-                           f"({', '.join(known)}); pass --assignment")
+        raise GradingError(
+            f"no folder in {submissions}/<student_id>/ is named after a lab "
+            f"({', '.join(known)}); pass --assignment"
+        )
     return students, found
 
 
@@ -163,8 +258,9 @@ def write_grades(rows: list[Row], out: Path) -> Path:
         writer = csv.writer(f)
         writer.writerow(CSV_HEADER)
         for r in sorted(rows, key=lambda r: (r.student_id, r.assignment_id)):
-            writer.writerow([r.student_id, r.assignment_id, f"{r.score:g}", f"{r.max_score:g}",
-                             r.status])
+            writer.writerow(
+                [r.student_id, r.assignment_id, f"{r.score:g}", f"{r.max_score:g}", r.status]
+            )
     return path
 
 
@@ -183,12 +279,25 @@ def grade_class(
         work = Path(tmp)
         assignments = [prepare(aid, work) for aid in assignment_ids]
         tasks = [(a, s) for s in students for a in assignments]
-        with ThreadPoolExecutor(max_workers=max(1, workers)) as pool:
-            rows = list(pool.map(
-                lambda t: grade_one(t[0], t[1], submissions, out, work, cell_timeout,
-                                    submission_timeout),
-                tasks,
-            ))
+        slots: queue.Queue[WorkerSlot] = queue.Queue()
+        for _ in range(max(1, workers)):
+            slots.put(WorkerSlot())
+
+        def run(task: tuple[Assignment, str]) -> Row:
+            slot = slots.get()
+            try:
+                return grade_one(
+                    slot, task[0], task[1], submissions, out, work, cell_timeout, submission_timeout
+                )
+            finally:
+                slots.put(slot)
+
+        try:
+            with ThreadPoolExecutor(max_workers=max(1, workers)) as pool:
+                rows = list(pool.map(run, tasks))
+        finally:
+            while not slots.empty():
+                slots.get().stop()
     write_grades(rows, out)
     (out / "report.json").write_text(json.dumps([asdict(r) for r in rows], indent=1))
     return rows

@@ -1,19 +1,25 @@
-"""Grade one submission in its own scratch course (run as a process by ``grade``).
+"""Grade submissions, one at a time, each in its own scratch course and ROS domain.
 
-``python -m autograder.worker JOB.json`` reads the job, autogrades the notebook with
-nbgrader, writes feedback and leaves ``result.json`` beside the job. Its environment
-(the ROS domain above all) is set by the parent, which also enforces the wall limit.
+``grade`` starts one worker process per parallel slot (``python -m autograder.worker
+RESULT_FD``) and sends it jobs, one JSON line each, on its standard input; the worker
+answers each with a JSON line on ``RESULT_FD``. A job carries its environment (its own
+ROS domain), which the notebook's kernel inherits. The parent enforces the wall-clock
+limit: a worker that overruns is killed with everything it started, and replaced.
 """
 
 from __future__ import annotations
 
+import functools
 import json
+import os
 import shutil
 import sys
-from dataclasses import asdict, dataclass
+import traceback
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
 import nbformat
+import nbgrader.api
 from nbgrader.api import Gradebook, MissingEntry
 from nbgrader.utils import compute_checksum
 
@@ -31,6 +37,8 @@ class Job:
     scratch: str  # this submission's own course root
     feedback: str  # where its feedback HTML goes
     cell_timeout: int
+    env: dict[str, str] = field(default_factory=dict)  # the kernel's ROS isolation
+    log: str = ""  # where this job's output goes
 
 
 @dataclass
@@ -41,7 +49,9 @@ class Result:
     message: str = ""
 
 
-def locked_cell_changes(submitted: nbformat.NotebookNode, released: nbformat.NotebookNode) -> list[str]:
+def locked_cell_changes(
+    submitted: nbformat.NotebookNode, released: nbformat.NotebookNode
+) -> list[str]:
     """grade_ids of locked cells (tests, set-up, instructions) the student changed or removed."""
     by_id = {}
     for cell in submitted.cells:
@@ -104,9 +114,14 @@ def grade(job: Job) -> Result:
         if "DeadKernelError" in log or "Kernel died" in log or "kernel died" in log:
             culprits = exit_calls(submitted)
             where = f" Suspect line(s): {'; '.join(culprits)}." if culprits else ""
-            return Result(0, 0, "error", "The Python kernel running your notebook died, so "
-                          "no check could run after that. A cell must never end the "
-                          f"interpreter (os._exit, sys.exit, exit()).{where}")
+            return Result(
+                0,
+                0,
+                "error",
+                "The Python kernel running your notebook died, so "
+                "no check could run after that. A cell must never end the "
+                f"interpreter (os._exit, sys.exit, exit()).{where}",
+            )
         tail = "\n".join(log.strip().splitlines()[-12:])
         return Result(0, 0, "error", f"nbgrader could not grade this notebook:\n{tail}")
 
@@ -125,8 +140,12 @@ def grade(job: Job) -> Result:
     slow = timed_out_cells(autograded)
 
     feedback = grader.generate_feedback(job.assignment_id, job.student_id, force=True)
-    page = scratch / "feedback" / job.student_id / job.assignment_id / (
-        Path(job.notebook).stem + ".html"
+    page = (
+        scratch
+        / "feedback"
+        / job.student_id
+        / job.assignment_id
+        / (Path(job.notebook).stem + ".html")
     )
     if not feedback["success"] or not page.exists():
         tail = "\n".join((feedback.get("log", "") + feedback.get("error", "")).splitlines()[-8:])
@@ -156,13 +175,42 @@ def grade(job: Job) -> Result:
     return Result(score, max_score, status, message)
 
 
-def main(argv: list[str]) -> int:
-    job_path = Path(argv[0])
-    job = Job(**json.loads(job_path.read_text()))
-    result = grade(job)
-    (job_path.parent / "result.json").write_text(json.dumps(asdict(result)))
-    return 0
+# nbgrader asks the `alembic` command for its schema head every time it opens a
+# gradebook (a process start, about 0.4 s, several times per submission); the answer
+# is fixed for the installed nbgrader, so ask once per worker.
+nbgrader.api.get_alembic_version = functools.cache(nbgrader.api.get_alembic_version)
+
+
+def run_job(job: Job) -> Result:
+    """Grade ``job`` with its environment and its output sent to its own log."""
+    os.environ.update(job.env)
+    if job.log:
+        log_fd = os.open(job.log, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o644)
+        sys.stdout.flush()
+        sys.stderr.flush()
+        os.dup2(log_fd, 1)
+        os.dup2(log_fd, 2)
+        os.close(log_fd)
+    try:
+        return grade(job)
+    except Exception:  # the grader's own failure on this submission: report, go on
+        return Result(
+            0,
+            0,
+            "error",
+            "The grader failed on this submission:\n"
+            + "\n".join(traceback.format_exc().strip().splitlines()[-6:]),
+        )
+
+
+def serve(result_fd: int) -> None:
+    """Read jobs from stdin until it closes; answer each on ``result_fd``."""
+    with os.fdopen(result_fd, "w", buffering=1) as results:
+        for line in sys.stdin:
+            if line.strip():
+                result = run_job(Job(**json.loads(line)))
+                results.write(json.dumps(asdict(result)) + "\n")
 
 
 if __name__ == "__main__":
-    sys.exit(main(sys.argv[1:]))
+    serve(int(sys.argv[1]))

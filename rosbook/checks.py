@@ -11,7 +11,6 @@ import os
 import signal
 import subprocess
 import sys
-import time
 import traceback
 from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
@@ -19,9 +18,9 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, TypeVar
 
+from rcl_interfaces.msg import Log
 from rclpy.node import Node
 from rclpy.qos import QoSProfile
-from rcl_interfaces.msg import Log
 
 from rosbook.session import SimClock, ros
 
@@ -37,9 +36,7 @@ def make_node(factory: Callable[..., T], *args: Any, **kwargs: Any) -> T:
     try:
         return factory(*args, **kwargs)
     except Exception as exc:  # the student's constructor failed: say how
-        raise AssertionError(
-            f"{call} raised {type(exc).__name__}: {exc} ({_where(exc)})"
-        ) from None
+        raise AssertionError(f"{call} raised {type(exc).__name__}: {exc} ({_where(exc)})") from None
 
 
 def type_name(msg_type: type) -> str:
@@ -251,7 +248,9 @@ def assert_relayed(
         sender.close()
 
 
-def assert_times(name: str, got: Sequence[float], expected: Sequence[float], tol: float = 0.011) -> None:
+def assert_times(
+    name: str, got: Sequence[float], expected: Sequence[float], tol: float = 0.011
+) -> None:
     """Arrival times (simulated seconds) must match ``expected`` within ``tol``."""
     bad = [(i, g, e) for i, (g, e) in enumerate(zip(got, expected)) if abs(g - e) > tol]
     if bad or len(got) != len(expected):
@@ -287,11 +286,11 @@ def assert_hello_world(data: Sequence[str], at_least: int) -> None:
         )
     numbers = []
     for text in data:
-        if not text.startswith(HELLO_PREFIX) or not text[len(HELLO_PREFIX):].isdigit():
+        if not text.startswith(HELLO_PREFIX) or not text[len(HELLO_PREFIX) :].isdigit():
             raise AssertionError(
                 f"received {text!r} on /chatter; each message must read 'Hello World: N'"
             )
-        numbers.append(int(text[len(HELLO_PREFIX):]))
+        numbers.append(int(text[len(HELLO_PREFIX) :]))
     if any(b != a + 1 for a, b in zip(numbers, numbers[1:])):
         raise AssertionError(f"the counter in the messages must go up by one: {numbers}")
 

@@ -116,13 +116,17 @@ def isolated_environ() -> Iterator[int]:
 RUN_MARKER = "ROSBOOK_RUN_TOKEN"
 
 
-def kill_marked(token: str) -> int:
-    """SIGKILL every process whose environment carries ``RUN_MARKER=token``."""
+def kill_marked(token: str, exclude: set[int] | frozenset[int] = frozenset()) -> int:
+    """SIGKILL every process whose environment carries ``RUN_MARKER=token``.
+
+    ``/proc/PID/environ`` is the environment a process was started with, so a process
+    that only set the token in its own ``os.environ`` (to pass it on) is not matched.
+    """
     needle = f"{RUN_MARKER}={token}".encode()
     killed = 0
     for proc_dir in Path("/proc").glob("[0-9]*"):
         pid = int(proc_dir.name)
-        if pid == os.getpid():
+        if pid == os.getpid() or pid in exclude:
             continue
         try:
             environ = (proc_dir / "environ").read_bytes()

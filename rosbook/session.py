@@ -112,9 +112,7 @@ class Session:
         """Spin ``nodes`` (default: all of the session's) for ``seconds`` of wall time."""
         self.spin_until(lambda: False, *nodes, timeout=seconds)
 
-    def spin_until(
-        self, condition: Callable[[], bool], *nodes: Node, timeout: float = 5.0
-    ) -> bool:
+    def spin_until(self, condition: Callable[[], bool], *nodes: Node, timeout: float = 5.0) -> bool:
         """Spin until ``condition()`` is true or ``timeout`` seconds have passed.
 
         Returns whether the condition came true; never blocks longer than ``timeout``.
@@ -206,18 +204,21 @@ class SimClock:
         target = int(round(self.now * 1e9))
         msg = self._message()
         deadline = time.monotonic() + timeout
-        behind = nodes
+
+        def caught_up() -> bool:
+            return all(n.get_clock().now().nanoseconds >= target for n in nodes)
+
         while True:
             self._pub.publish(msg)
-            behind = [n for n in behind if n.get_clock().now().nanoseconds < target]
-            if not behind or self._session.spin_until(
-                lambda: all(n.get_clock().now().nanoseconds >= target for n in behind),
+            if caught_up() or self._session.spin_until(
+                caught_up,
                 *nodes,
                 self._node,
                 timeout=0.2,
             ):
                 return
             if time.monotonic() > deadline:
+                behind = [n for n in nodes if n.get_clock().now().nanoseconds < target]
                 names = ", ".join(n.get_name() for n in behind)
                 raise TimeoutError(
                     f"node(s) {names} did not follow /clock to t={self.now:.3f} s: "

@@ -1,0 +1,99 @@
+"""Build a lab's fixture submissions from its release and solution, and grade them.
+
+Fixtures are derived from ``labs/`` and ``solutions/`` at test time, so they never go
+stale when a lab changes: "right" is the release with every solution cell answered as
+in the solution, "wrong" replaces some answers, and so on.
+"""
+
+from __future__ import annotations
+
+import copy
+import csv
+from pathlib import Path
+
+import nbformat
+
+from autograder.config import LABS, SOLUTIONS
+from autograder.grade import grade_class
+
+
+def notebook_path(lab: str, released: bool = True) -> Path:
+    return (LABS if released else SOLUTIONS) / lab / f"{lab}.ipynb"
+
+
+def grade_id(cell: nbformat.NotebookNode) -> str | None:
+    return cell.get("metadata", {}).get("nbgrader", {}).get("grade_id")
+
+
+def solution_answers(lab: str) -> dict[str, str]:
+    """The instructor's source of every solution cell, by grade_id."""
+    solution = nbformat.read(notebook_path(lab, released=False), as_version=4)
+    return {
+        grade_id(c): c.source
+        for c in solution.cells
+        if c.get("metadata", {}).get("nbgrader", {}).get("solution")
+    }
+
+
+def strip_markers(source: str) -> str:
+    lines = source.splitlines()
+    return "\n".join(
+        ln for ln in lines if ln.strip() not in ("### BEGIN SOLUTION", "### END SOLUTION")
+    )
+
+
+def answered(lab: str, **replacements: str) -> nbformat.NotebookNode:
+    """The released notebook as a student who wrote the solution would submit it.
+
+    ``replacements`` give other answers (cell source) for some grade_ids.
+    """
+    notebook = nbformat.read(notebook_path(lab), as_version=4)
+    answers = {k: strip_markers(v) for k, v in solution_answers(lab).items()}
+    answers.update(replacements)
+    for cell in notebook.cells:
+        if grade_id(cell) in answers and cell.metadata.nbgrader.get("solution"):
+            cell.source = answers[grade_id(cell)]
+    return notebook
+
+
+def replace_in_answer(lab: str, gid: str, old: str, new: str) -> dict[str, str]:
+    """A replacement for ``answered``: the solution of ``gid`` with ``old`` -> ``new``."""
+    source = strip_markers(solution_answers(lab)[gid])
+    assert old in source, f"{old!r} not in the solution of {gid}"
+    return {gid: source.replace(old, new)}
+
+
+def with_cell(notebook: nbformat.NotebookNode, gid: str, source: str) -> nbformat.NotebookNode:
+    """A copy of ``notebook`` whose cell ``gid`` (any cell) has ``source``."""
+    notebook = copy.deepcopy(notebook)
+    for cell in notebook.cells:
+        if grade_id(cell) == gid:
+            cell.source = source
+            return notebook
+    raise KeyError(gid)
+
+
+def submit(
+    root: Path, student: str, lab: str, notebook: nbformat.NotebookNode | str | None
+) -> None:
+    """Place a submission: a notebook, raw text (a broken file), or None (folder, no file)."""
+    folder = root / student / lab
+    folder.mkdir(parents=True, exist_ok=True)
+    if notebook is None:
+        return
+    path = folder / f"{lab}.ipynb"
+    if isinstance(notebook, str):
+        path.write_text(notebook)
+    else:
+        nbformat.write(notebook, path)
+
+
+def grade(submissions: Path, out: Path, **kwargs: object) -> dict[tuple[str, str], dict[str, str]]:
+    """Grade ``submissions``; the grades.csv rows by (student, lab)."""
+    grade_class(submissions, out, **kwargs)  # type: ignore[arg-type]
+    with open(out / "grades.csv") as f:
+        return {(r["student_id"], r["assignment_id"]): r for r in csv.DictReader(f)}
+
+
+def feedback(out: Path, student: str, lab: str) -> str:
+    return (out / "feedback" / student / lab / f"{lab}.html").read_text()

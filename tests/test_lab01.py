@@ -1,0 +1,192 @@
+"""Lab 1 graded end to end: fixture submissions for each kind of student behaviour."""
+
+from __future__ import annotations
+
+import os
+import shutil
+from pathlib import Path
+
+import nbformat
+import pytest
+
+from autograder.check import check, report
+from rosbook.isolation import RUN_MARKER
+from tests.labtools import (
+    answered,
+    feedback,
+    grade,
+    notebook_path,
+    replace_in_answer,
+    submit,
+    with_cell,
+)
+
+LAB = "lab01_nodes_topics"
+
+OLD_MAIN = """    try:
+        rclpy.spin(node)
+    except KeyboardInterrupt:
+        pass
+    finally:
+        node.destroy_node()
+        rclpy.shutdown()"""
+
+
+def wrong() -> nbformat.NotebookNode:
+    """Publisher on the wrong topic, doubler that triples, talker with the old Ctrl-C code."""
+    fixes = {}
+    fixes.update(replace_in_answer(LAB, "counter_publisher", "'counter'", "'count'"))
+    fixes.update(replace_in_answer(LAB, "doubler", "2 * msg.data", "3 * msg.data"))
+    talker = replace_in_answer(LAB, "talker_script", "rclpy.try_shutdown()", "rclpy.shutdown()")
+    talker["talker_script"] = talker["talker_script"].replace(
+        "except (KeyboardInterrupt, ExternalShutdownException):", "except KeyboardInterrupt:"
+    )
+    fixes.update(talker)
+    return answered(LAB, **fixes)
+
+
+def extra_cell(notebook: nbformat.NotebookNode, source: str) -> nbformat.NotebookNode:
+    """A student's own cell, added right after the set-up cell."""
+    notebook.cells.insert(2, nbformat.v4.new_code_cell(source))
+    return notebook
+
+
+def live_marked_processes() -> list[int]:
+    """Processes started by some grading job that are still alive."""
+    own = {os.environ.get(RUN_MARKER)}
+    own.add(
+        next(
+            (
+                v.split(b"=", 1)[1].decode()
+                for v in Path("/proc/self/environ").read_bytes().split(b"\0")
+                if v.startswith(RUN_MARKER.encode() + b"=")
+            ),
+            None,
+        )
+    )
+    found = []
+    for proc in Path("/proc").glob("[0-9]*"):
+        try:
+            env = proc.joinpath("environ").read_bytes().split(b"\0")
+        except OSError:
+            continue
+        for item in env:
+            if item.startswith(RUN_MARKER.encode() + b"="):
+                if item.split(b"=", 1)[1].decode() not in own:
+                    found.append(int(proc.name))
+    return found
+
+
+@pytest.fixture(scope="module")
+def graded(tmp_path_factory: pytest.TempPathFactory) -> tuple[dict, Path]:
+    root = tmp_path_factory.mktemp("submissions")
+    right = answered(LAB)
+    submit(root, "right", LAB, right)
+    submit(root, "wrong", LAB, wrong())
+    submit(root, "tampered", LAB, with_cell(right, "test_doubler", "pass"))
+    submit(root, "looping", LAB, extra_cell(answered(LAB), "while True:\n    pass"))
+    submit(root, "exiting", LAB, extra_cell(answered(LAB), "import os\nos._exit(0)"))
+    submit(root, "broken", LAB, '{"cells": [ this is not JSON')
+    submit(root, "empty_folder", LAB, None)
+    (root / "no_folder").mkdir()
+    out = tmp_path_factory.mktemp("out")
+    rows = grade(root, out, assignment_id=LAB, workers=2, cell_timeout=8)
+    return rows, out
+
+
+def row(graded: tuple[dict, Path], student: str) -> dict:
+    return graded[0][(student, LAB)]
+
+
+def test_every_student_gets_a_row_and_a_feedback_page(graded: tuple[dict, Path]) -> None:
+    rows, out = graded
+    students = {
+        "right",
+        "wrong",
+        "tampered",
+        "looping",
+        "exiting",
+        "broken",
+        "empty_folder",
+        "no_folder",
+    }
+    assert {s for s, _ in rows} == students
+    for student in students:
+        assert feedback(out, student, LAB).startswith(("<!DOCTYPE html>", "<html", "\n<!DOCTYPE"))
+    header = (out / "grades.csv").read_text().splitlines()[0]
+    assert header == "student_id,assignment_id,score,max_score,status"
+
+
+def test_right_submission_scores_full_marks(graded: tuple[dict, Path]) -> None:
+    assert row(graded, "right")["status"] == "ok"
+    assert row(graded, "right")["score"] == row(graded, "right")["max_score"] == "10"
+
+
+def test_wrong_submission_gets_feedback_naming_each_mistake(graded: tuple[dict, Path]) -> None:
+    r = row(graded, "wrong")
+    assert (r["status"], r["score"]) == ("ok", "2")  # only the subscriber is right
+    page = feedback(graded[1], "wrong", LAB)
+    assert "has no publisher on /counter" in page and "/count (std_msgs/msg/Int64)" in page
+    assert "expected [2, 4, 6], got [3, 6, 9]" in page
+    assert "did not exit cleanly on Ctrl-C" in page and "ExternalShutdownException" in page
+
+
+def test_feedback_never_shows_hidden_tests(graded: tuple[dict, Path]) -> None:
+    for student in ("right", "wrong", "tampered"):
+        page = feedback(graded[1], student, LAB)
+        assert "BEGIN HIDDEN TESTS" not in page
+        assert "values = [7, -2, 0, 2**40]" not in page
+        assert "Traceback (most recent call last)" not in page or student == "right"
+
+
+def test_changed_locked_cell_is_graded_with_the_original_and_marked(graded) -> None:
+    r = row(graded, "tampered")
+    assert (r["status"], r["score"]) == ("tampered", "10")
+    assert "test_doubler" in feedback(graded[1], "tampered", LAB)
+
+
+def test_endless_student_cell_is_interrupted_and_the_rest_graded(graded) -> None:
+    r = row(graded, "looping")
+    assert (r["status"], r["score"]) == ("timeout", "10")
+    assert "ran longer than 8 s" in feedback(graded[1], "looping", LAB)
+
+
+def test_killed_kernel_is_an_error_naming_the_cell(graded) -> None:
+    r = row(graded, "exiting")
+    assert (r["status"], r["score"], r["max_score"]) == ("error", "0", "10")
+    assert "os._exit(0)" in feedback(graded[1], "exiting", LAB)
+
+
+def test_invalid_json_and_missing_notebooks(graded) -> None:
+    assert row(graded, "broken")["status"] == "error"
+    assert "is not a valid notebook" in feedback(graded[1], "broken", LAB)
+    for student in ("empty_folder", "no_folder"):
+        assert (row(graded, student)["status"], row(graded, student)["score"]) == ("missing", "0")
+
+
+def test_grading_leaves_no_process_behind(graded) -> None:
+    assert live_marked_processes() == []
+
+
+def test_self_check_reports_each_visible_check(tmp_path: Path) -> None:
+    path = tmp_path / f"{LAB}.ipynb"
+    nbformat.write(wrong(), path)
+    results, changed = check(path, cell_timeout=20)
+    text = report(path, results, changed)
+    passed = {r.grade_id: r.passed for r in results}
+    assert passed == {
+        "test_counter_publisher": False,
+        "test_counter_subscriber": True,
+        "test_doubler": False,
+        "test_talker_script": False,
+    }, text
+    assert "has no publisher on /counter" in text
+    assert changed == []
+
+
+def test_self_check_passes_on_the_solution(tmp_path: Path) -> None:
+    path = tmp_path / f"{LAB}.ipynb"
+    shutil.copy(notebook_path(LAB), path)
+    nbformat.write(answered(LAB), path)
+    results, _ = check(path, cell_timeout=20)
+    assert results and all(r.passed for r in results), report(path, results, [])

@@ -1,0 +1,68 @@
+"""Instructor CI for every lab: labs/ is generated from solutions/, solutions score full
+marks, released labs score zero without breaking the grader."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import nbformat
+import pytest
+
+from autograder.config import LABS, SOLUTIONS, lab_ids
+from autograder.course import release_lab
+from tests.labtools import answered, grade, submit
+
+LABS_NOW = lab_ids()
+
+
+def normalized(path: Path) -> dict:
+    return json.loads(json.dumps(nbformat.read(path, as_version=4), sort_keys=True))
+
+
+@pytest.mark.parametrize("lab", LABS_NOW)
+def test_released_lab_is_exactly_what_solutions_generate(lab: str, tmp_path: Path) -> None:
+    generated = release_lab(lab, tmp_path / "course", labs_dir=tmp_path / "labs")
+    committed = LABS / lab
+    assert sorted(p.name for p in generated.iterdir()) == sorted(
+        p.name for p in committed.iterdir() if not p.name.endswith(".py")
+    ), "labs/ holds other files than generate_assignment makes: run `make labs`"
+    for path in generated.iterdir():
+        assert normalized(path) == normalized(committed / path.name), (
+            f"labs/{lab}/{path.name} differs from what solutions/ generates: run `make labs`"
+        )
+
+
+def test_every_lab_has_a_release() -> None:
+    assert LABS_NOW, "no lab in solutions/"
+    assert sorted(p.name for p in LABS.iterdir() if p.is_dir()) == LABS_NOW
+
+
+@pytest.fixture(scope="module")
+def round_trip(tmp_path_factory: pytest.TempPathFactory) -> dict:
+    root = tmp_path_factory.mktemp("submissions")
+    for lab in LABS_NOW:
+        submit(root, "instructor", lab, nbformat.read(SOLUTIONS / lab / f"{lab}.ipynb", 4))
+        submit(root, "answered", lab, answered(lab))
+        submit(root, "untouched", lab, nbformat.read(LABS / lab / f"{lab}.ipynb", 4))
+    return grade(root, tmp_path_factory.mktemp("out"), workers=2)
+
+
+@pytest.mark.parametrize("lab", LABS_NOW)
+def test_solution_scores_full_marks(round_trip: dict, lab: str) -> None:
+    row = round_trip[("instructor", lab)]
+    assert float(row["score"]) == float(row["max_score"]) > 0, row
+
+
+@pytest.mark.parametrize("lab", LABS_NOW)
+def test_release_answered_as_the_solution_scores_full_marks(round_trip: dict, lab: str) -> None:
+    row = round_trip[("answered", lab)]
+    assert row["status"] == "ok", row
+    assert float(row["score"]) == float(row["max_score"]), row
+
+
+@pytest.mark.parametrize("lab", LABS_NOW)
+def test_untouched_release_scores_zero_without_grader_error(round_trip: dict, lab: str) -> None:
+    row = round_trip[("untouched", lab)]
+    assert row["status"] == "ok", row
+    assert float(row["score"]) == 0, row
