@@ -1,0 +1,5 @@
+import sys
+
+from rosbook.cli import main
+
+sys.exit(main())
