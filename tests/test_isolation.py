@@ -1,0 +1,101 @@
+"""Domain isolation: separate runs never share a domain or hear each other."""
+
+from __future__ import annotations
+
+import fcntl
+import os
+import subprocess
+import sys
+import time
+
+import pytest
+
+from rosbook.isolation import (
+    BASE_ENV,
+    LOCK_DIR,
+    RUN_MARKER,
+    kill_marked,
+    reserve_domain,
+    run_isolated,
+)
+
+
+def test_reservations_are_exclusive_and_released() -> None:
+    with reserve_domain() as a, reserve_domain() as b:
+        assert a.domain_id != b.domain_id
+        handle = open(LOCK_DIR / f"{a.domain_id}.lock", "a+")
+        with pytest.raises(BlockingIOError):  # held while reserved
+            fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)  # free once released
+    handle.close()
+
+
+def test_isolated_environment_settings() -> None:
+    with reserve_domain() as r:
+        env = r.env({"PATH": "/bin"})
+    assert env["ROS_DOMAIN_ID"] == str(r.domain_id)
+    assert env["ROS_AUTOMATIC_DISCOVERY_RANGE"] == "LOCALHOST"
+    for key, value in BASE_ENV.items():
+        assert env[key] == value
+    assert env[RUN_MARKER] == r.token and env["PATH"] == "/bin"
+
+
+def test_run_isolated_passes_its_exit_code_and_domain(tmp_path) -> None:
+    out = tmp_path / "env.txt"
+    code = run_isolated(
+        [
+            sys.executable,
+            "-c",
+            f"import os; open({str(out)!r}, 'w').write(os.environ['ROS_DOMAIN_ID']); "
+            "raise SystemExit(3)",
+        ]
+    )
+    assert code == 3
+    assert out.read_text().isdigit()
+
+
+def test_kill_marked_reaches_a_process_in_another_session() -> None:
+    with reserve_domain() as r:
+        child = subprocess.Popen(
+            [sys.executable, "-c", "import time; time.sleep(60)"],
+            env=r.env(),
+            start_new_session=True,
+        )
+        time.sleep(0.2)
+        assert kill_marked(r.token) == 1
+        assert child.wait(timeout=5) != 0
+
+
+def test_two_domains_do_not_hear_each_other(tmp_path) -> None:
+    talker = (
+        "import rclpy, time\nfrom std_msgs.msg import String\nrclpy.init()\n"
+        "n = rclpy.create_node('far_talker'); p = n.create_publisher(String, 'far', 10)\n"
+        "end = time.time() + 4\n"
+        "while time.time() < end:\n    p.publish(String(data='hi')); time.sleep(0.05)\n"
+    )
+    listener = (
+        "import rclpy, time, sys\nfrom std_msgs.msg import String\nrclpy.init()\n"
+        "n = rclpy.create_node('far_listener'); got = []\n"
+        "n.create_subscription(String, 'far', got.append, 10)\nend = time.time() + 2.5\n"
+        "while time.time() < end and not got:\n    rclpy.spin_once(n, timeout_sec=0.1)\n"
+        "print(len(got))\n"
+    )
+    with reserve_domain() as a, reserve_domain() as b:
+        results = {}
+        for name, listen_env in (("same", a.env()), ("other", b.env())):
+            t = subprocess.Popen([sys.executable, "-c", talker], env=a.env())
+            try:
+                out = subprocess.run(
+                    [sys.executable, "-c", listener],
+                    env=listen_env,
+                    capture_output=True,
+                    text=True,
+                    timeout=30,
+                )
+            finally:
+                t.kill()
+                t.wait()
+            results[name] = int(out.stdout.strip() or 0)
+    assert results["same"] > 0, "a listener on the talker's domain must hear it"
+    assert results["other"] == 0, "a listener on another domain must hear nothing"
+    assert os.environ.get("ROS_DOMAIN_ID")  # this run itself is isolated (conftest)

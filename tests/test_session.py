@@ -1,0 +1,112 @@
+"""The notebook session: re-runnable cells, bounded spinning, exact simulated time."""
+
+from __future__ import annotations
+
+import time
+
+import rclpy
+from rcl_interfaces.msg import Log
+from rclpy.node import Node
+from std_msgs.msg import Int64
+
+from rosbook.session import Session
+
+
+class Ticker(Node):
+    def __init__(self, period: float = 0.5, name: str = "ticker") -> None:
+        super().__init__(name)
+        self.pub = self.create_publisher(Int64, "ticks", 10)
+        self.count = 0
+        self.timer = self.create_timer(period, self.tick)
+
+    def tick(self) -> None:
+        self.pub.publish(Int64(data=self.count))
+        self.count += 1
+
+
+def test_init_twice_is_harmless(session: Session) -> None:
+    session.init()
+    session.init()
+    assert rclpy.ok()
+
+
+def test_recreating_a_node_replaces_the_old_one_first(session: Session) -> None:
+    first = Node("twin")
+    second = Node("twin")
+    assert session.nodes.count(second) == 1 and first not in session.nodes
+    assert [n.get_name() for n in session.nodes] == ["twin"]
+    # rcl would warn on a live duplicate and the survivor would lose /rosout: it keeps it.
+    logs: list[Log] = []
+    ear = Node("ear")
+    ear.create_subscription(Log, "/rosout", logs.append, 10)
+    session.spin_until(lambda: False, timeout=0.3)
+    second.get_logger().info("still on rosout")
+    assert session.spin_until(lambda: any(m.msg == "still on rosout" for m in logs), timeout=3)
+
+
+def test_same_name_in_another_namespace_is_a_different_node(session: Session) -> None:
+    Node("driver", namespace="robot1")
+    Node("driver", namespace="robot2")
+    assert sorted(n.get_fully_qualified_name() for n in session.nodes) == [
+        "/robot1/driver",
+        "/robot2/driver",
+    ]
+
+
+def test_destroyed_nodes_leave_the_session(session: Session) -> None:
+    node = Node("short_lived")
+    node.destroy_node()
+    assert node not in session.nodes
+    session.spin_for(0.05)  # spinning the rest still works
+
+
+def test_spin_until_is_bounded_and_reports_failure(session: Session) -> None:
+    Node("idle")
+    start = time.monotonic()
+    assert session.spin_until(lambda: False, timeout=0.3) is False
+    assert 0.25 < time.monotonic() - start < 1.5
+
+
+def test_session_recovers_after_someone_shut_rclpy_down(session: Session) -> None:
+    Node("before")
+    rclpy.shutdown()  # e.g. a signal handler in some other code
+    session.init()
+    assert rclpy.ok()
+    Node("after")
+    session.spin_for(0.05)
+
+
+def test_sim_clock_runs_a_timer_exactly(session: Session) -> None:
+    clock = session.sim_clock()
+    ticker = Ticker(period=0.5)
+    got: list[tuple[int, float]] = []
+    probe = Node("probe")
+    probe.create_subscription(
+        Int64,
+        "ticks",
+        lambda m: got.append((m.data, probe.get_clock().now().nanoseconds / 1e9)),
+        50,
+    )
+    session.spin_until(lambda: ticker.pub.get_subscription_count() > 0, timeout=2)
+    start = time.monotonic()
+    clock.advance(20.0, step=0.05)
+    session.spin_until(lambda: len(got) >= 40, timeout=1)
+    assert [d for d, _ in got] == list(range(40))
+    assert [round(t, 6) for _, t in got] == [round(0.5 * (k + 1), 6) for k in range(40)]
+    assert time.monotonic() - start < 20.0  # far less than the simulated 20 s
+
+
+def test_sim_clock_starts_a_fresh_world(session: Session) -> None:
+    session.sim_clock()
+    Node("old")
+    clock = session.sim_clock()
+    assert [n.get_name() for n in session.nodes] == ["sim_clock"]
+    assert clock.now == 0.0
+
+
+def test_back_to_wall_time(session: Session) -> None:
+    session.sim_clock()
+    session.init(sim_time=False)
+    assert not session.sim_time
+    node = Node("wall")
+    assert node.get_clock().now().nanoseconds > 1e18  # seconds since 1970
