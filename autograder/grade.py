@@ -28,7 +28,7 @@ from autograder.config import lab_ids
 from autograder.course import generate
 from autograder.feedback import write_notice_page
 from autograder.worker import Job
-from rosbook.isolation import RUN_MARKER, kill_marked, kill_process_group, reserve_domain
+from rosbook.isolation import RUN_MARKER, child_env, kill_marked, kill_process_group, reserve_domain
 
 STATUSES = ("ok", "timeout", "error", "missing", "tampered")
 CSV_HEADER = ["student_id", "assignment_id", "score", "max_score", "status"]
@@ -163,6 +163,7 @@ class WorkerSlot:
             stderr=subprocess.DEVNULL,
             pass_fds=(write_end,),
             start_new_session=True,
+            env=child_env(),
         )
         os.close(write_end)
         self.results = read_end

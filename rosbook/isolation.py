@@ -39,8 +39,22 @@ BASE_ENV: dict[str, str] = {
     # ROS logs go to stderr by default; nbgrader scores a test cell 0 when it writes
     # to stderr, and notebooks show stdout inline.
     "RCUTILS_LOGGING_USE_STDOUT": "1",
+    # Line-buffered: a log line reaches a pipe (a notebook, a grader's log) when it
+    # is written, not when a 4 KB buffer fills or the process exits.
+    "RCUTILS_LOGGING_BUFFERED_STREAM": "1",
     "RCUTILS_COLORIZED_OUTPUT": "0",
 }
+
+
+#: Variables no isolated child inherits: a Jupyter kernel that sees it runs under
+#: pytest stops forwarding C-level output (ROS log lines) to the notebook, so a test
+#: would see other outputs than a student or the book build.
+SCRUBBED = ("PYTEST_CURRENT_TEST",)
+
+
+def child_env(base: Mapping[str, str] | None = None) -> dict[str, str]:
+    """``base`` (default: this process's environment) without ``SCRUBBED`` variables."""
+    return {k: v for k, v in (os.environ if base is None else base).items() if k not in SCRUBBED}
 
 
 class DomainReservation:
@@ -57,7 +71,7 @@ class DomainReservation:
         It also carries a token unique to this reservation, by which ``kill_marked``
         finds every process started under it.
         """
-        env = dict(os.environ if base is None else base)
+        env = child_env(base)
         env.update(BASE_ENV)
         env["ROS_DOMAIN_ID"] = str(self.domain_id)
         env[RUN_MARKER] = self.token

@@ -19,6 +19,7 @@ The session also recovers by itself when something else shut its context down.
 
 from __future__ import annotations
 
+import sys
 import time
 from collections.abc import Callable, Iterable
 from typing import Any
@@ -118,24 +119,17 @@ class Session:
         Returns whether the condition came true; never blocks longer than ``timeout``.
         """
         executor = self._executor(nodes)
-        deadline = time.monotonic() + timeout
         try:
-            while True:
-                if condition():
-                    return True
-                remaining = deadline - time.monotonic()
-                if remaining <= 0:
-                    return False
-                executor.spin_once(timeout_sec=min(POLL_S, remaining))
+            return _spin_executor(executor, condition, timeout)
         finally:
             _release(executor)
+            _settle_output()
 
     def spin_pending(self, *nodes: Node, rounds: int = 20) -> None:
         """Run the callbacks that are ready now, without waiting for new work."""
         executor = self._executor(nodes)
         try:
-            for _ in range(rounds):
-                executor.spin_once(timeout_sec=0.0)
+            _drain(executor, rounds)
         finally:
             _release(executor)
 
@@ -173,11 +167,15 @@ class SimClock:
         run before time moves on, as they would on a robot running in real time.
         """
         watched = [n for n in (nodes or self._session.nodes) if n is not self._node]
-        end = self.now + seconds
-        while self.now < end - 1e-12:
-            self.now = min(self.now + step, end)
-            self._publish_and_wait(watched, catch_up_timeout)
-            self._session.spin_pending(*watched, self._node)
+        executor = self._session._executor([*watched, self._node])
+        try:
+            end = self.now + seconds
+            while self.now < end - 1e-12:
+                self.now = min(self.now + step, end)
+                self._publish_and_wait(executor, watched, catch_up_timeout)
+                _drain(executor, rounds=8)
+        finally:
+            _release(executor)
 
     def advance_remote(self, seconds: float, step: float = 0.05, settle: float = 0.02) -> None:
         """Advance ``/clock`` for nodes in other processes, whose clocks we cannot read.
@@ -200,7 +198,9 @@ class SimClock:
         msg.clock.sec, msg.clock.nanosec = divmod(int(round(self.now * 1e9)), 1_000_000_000)
         return msg
 
-    def _publish_and_wait(self, nodes: list[Node], timeout: float) -> None:
+    def _publish_and_wait(
+        self, executor: SingleThreadedExecutor, nodes: list[Node], timeout: float
+    ) -> None:
         target = int(round(self.now * 1e9))
         msg = self._message()
         deadline = time.monotonic() + timeout
@@ -210,20 +210,47 @@ class SimClock:
 
         while True:
             self._pub.publish(msg)
-            if caught_up() or self._session.spin_until(
-                caught_up,
-                *nodes,
-                self._node,
-                timeout=0.2,
-            ):
+            if _spin_executor(executor, caught_up, timeout=0.2):
                 return
-            if time.monotonic() > deadline:
+            if time.monotonic() > deadline:  # republished every 0.2 s until then
                 behind = [n for n in nodes if n.get_clock().now().nanoseconds < target]
                 names = ", ".join(n.get_name() for n in behind)
                 raise TimeoutError(
                     f"node(s) {names} did not follow /clock to t={self.now:.3f} s: "
                     "was the node created after ros.init(sim_time=True) / ros.sim_clock()?"
                 )
+
+
+def _spin_executor(
+    executor: SingleThreadedExecutor, condition: Callable[[], bool], timeout: float
+) -> bool:
+    deadline = time.monotonic() + timeout
+    while True:
+        if condition():
+            return True
+        remaining = deadline - time.monotonic()
+        if remaining <= 0:
+            return False
+        executor.spin_once(timeout_sec=min(POLL_S, remaining))
+
+
+def _drain(executor: SingleThreadedExecutor, rounds: int) -> None:
+    """Run what is ready now (a timer that came due, a message that arrived)."""
+    for _ in range(rounds):
+        executor.spin_once(timeout_sec=0.0)
+
+
+def _settle_output() -> None:
+    """Let a Jupyter kernel show ROS log lines in the cell that caused them.
+
+    rcl writes log lines to file descriptor 1 from C; ipykernel forwards that file
+    descriptor to the notebook from a thread. Give the thread a moment and flush, so
+    the lines land in this cell's output rather than the next one's.
+    """
+    stdout = sys.stdout
+    if hasattr(stdout, "_original_stdstream_copy"):  # ipykernel's captured stream
+        time.sleep(0.05)
+        stdout.flush()
 
 
 def _fully_qualified(name: str, namespace: str | None) -> str:

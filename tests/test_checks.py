@@ -1,0 +1,102 @@
+"""The checks that lab test cells use say what is wrong, in ROS terms."""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import pytest
+from rclpy.node import Node
+from std_msgs.msg import Int64, String
+
+from rosbook import checks
+from rosbook.session import Session
+
+GOOD_MAIN = """
+import rclpy
+from rclpy.executors import ExternalShutdownException
+from rclpy.node import Node
+
+
+def main(args=None):
+    rclpy.init(args=args)
+    node = Node('sleeper')
+    try:
+        rclpy.spin(node)
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+    finally:
+        node.destroy_node()
+        rclpy.try_shutdown()
+
+
+main()
+"""
+
+
+def test_wrong_topic_name_is_named(session: Session) -> None:
+    node = Node("pub")
+    node.create_publisher(Int64, "count", 10)
+    with pytest.raises(AssertionError, match=r"no publisher on /counter .*its publishers: /count"):
+        checks.node_publishes(node, "counter", Int64)
+
+
+def test_wrong_type_is_named(session: Session) -> None:
+    node = Node("pub")
+    node.create_publisher(String, "counter", 10)
+    with pytest.raises(
+        AssertionError, match=r"std_msgs/msg/String, but the task asks for std_msgs/msg/Int64"
+    ):
+        checks.node_publishes(node, "counter", Int64)
+
+
+def test_silent_topic_explains_the_graph(session: Session) -> None:
+    Node("other").create_publisher(Int64, "elsewhere", 10)
+    probe = checks.Probe("counter", Int64)
+    with pytest.raises(AssertionError, match=r"no publisher on /counter.*/elsewhere"):
+        probe.wait_for_publisher(timeout=0.5)
+
+
+@pytest.mark.parametrize(
+    ("got", "message"),
+    [
+        ([], "nothing was received"),
+        ([2, 1, 0], "right values in the wrong order"),
+        ([0, 1], "received 2 messages, expected 3"),
+        ([5, 5, 5], "expected [0, 1, 2], got [5, 5, 5]"),
+    ],
+)
+def test_sequence_mismatch_messages(got: list[int], message: str) -> None:
+    with pytest.raises(AssertionError, match=re.escape(message)):
+        checks.assert_sequence("x", got, [0, 1, 2])
+
+
+def test_clean_ctrl_c_passes(tmp_path: Path) -> None:
+    script = tmp_path / "good.py"
+    script.write_text(GOOD_MAIN)
+    with checks.run_script(script) as run:
+        import time
+
+        time.sleep(1.0)
+        checks.assert_clean_exit(run)
+
+
+def test_old_ctrl_c_pattern_fails_with_the_jazzy_hint(tmp_path: Path) -> None:
+    script = tmp_path / "bad.py"
+    script.write_text(
+        GOOD_MAIN.replace(
+            "(KeyboardInterrupt, ExternalShutdownException)", "KeyboardInterrupt"
+        ).replace("rclpy.try_shutdown()", "rclpy.shutdown()")
+    )
+    with checks.run_script(script) as run:
+        import time
+
+        time.sleep(1.0)
+        with pytest.raises(AssertionError, match="ExternalShutdownException"):
+            checks.assert_clean_exit(run)
+
+
+def test_missing_script_is_named(tmp_path: Path) -> None:
+    with pytest.raises(AssertionError, match="did you run the %%writefile cell"):
+        with checks.run_script(tmp_path / "talker.py"):
+            pass
