@@ -1,7 +1,8 @@
 """nbgrader configuration of the course (the one place it is set).
 
-The grader and ``make labs`` load this file; an instructor running nbgrader by hand
-uses it with ``nbgrader <command> --config autograder/nbgrader_config.py``.
+The grader and ``make labs`` load this file. nbgrader run by hand reads
+``nbgrader_config.py`` from its working folder: run it from a course root that holds
+a copy of this file (``solutions/`` and ``labs/`` are then relative to that root).
 """
 
 c = get_config()  # type: ignore[name-defined]  # noqa: F821 (provided by traitlets)

@@ -164,10 +164,10 @@ def kill_process_group(proc: subprocess.Popen[bytes] | subprocess.Popen[str]) ->
     proc.wait()
 
 
-def run_isolated(argv: list[str]) -> int:
+def run_isolated(argv: list[str], cwd: str | os.PathLike[str] | None = None) -> int:
     """Run ``argv`` in a fresh domain; leave no process of its group behind."""
     with reserve_domain() as reservation:
-        proc = subprocess.Popen(argv, env=reservation.env(), start_new_session=True)
+        proc = subprocess.Popen(argv, env=reservation.env(), start_new_session=True, cwd=cwd)
         try:
             return proc.wait()
         except KeyboardInterrupt:
