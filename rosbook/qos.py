@@ -713,7 +713,8 @@ def incompatible_policies(pub_qos: QoSProfile, sub_qos: QoSProfile) -> set[str]:
 
     A subscription may ask for less than the publisher offers, never more: RELIABLE
     from a BEST_EFFORT publisher, TRANSIENT_LOCAL from a VOLATILE one, or a deadline
-    shorter than the publisher's (no publisher deadline satisfies no subscription deadline).
+    shorter than the publisher's (a publisher without one satisfies only a subscription
+    without one).
     """
     bad = set()
     if (
