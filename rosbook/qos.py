@@ -227,6 +227,16 @@ def table_markdown(records: Sequence[MessageRecord], decimals: int = 1) -> str:
     return "\n".join(lines)
 
 
+def table_html(records: Sequence[MessageRecord], decimals: int = 1) -> str:
+    """The delivery table as an HTML table (what a built page shows)."""
+    head = "".join(f"<th>{h}</th>" for h in TABLE_HEADER)
+    body = "".join(
+        "<tr>" + "".join(f"<td>{cell or '–'}</td>" for cell in row) + "</tr>"
+        for row in table_rows(records, decimals)
+    )
+    return f'<table class="qos-table"><thead><tr>{head}</tr></thead><tbody>{body}</tbody></table>'
+
+
 def until(records: Sequence[MessageRecord], horizon: float) -> list[MessageRecord]:
     """The records as they stood at ``horizon`` (events after it not yet happened)."""
 
@@ -639,15 +649,18 @@ def run_late_joiner(
     join_s: float = 2.5,
     topic: str = "counter",
     settle_s: float = 0.3,
+    joiner_durability: DurabilityPolicy | None = None,
 ) -> ScenarioRun:
     """No subscriber while the publisher sends; a subscriber joins at ``join_s``.
 
-    Both ends use ``durability``. Messages the late joiner never gets are dropped: at
-    publish time with VOLATILE (nobody to deliver to), and with TRANSIENT_LOCAL when the
-    publisher's own KEEP_LAST history of ``depth`` overwrote them.
+    The publisher uses ``durability``, the late joiner ``joiner_durability`` (default:
+    the same). Messages the late joiner never gets are dropped: when both ends are
+    TRANSIENT_LOCAL, at the publish that pushed them out of the publisher's KEEP_LAST
+    history of ``depth``; otherwise at their publish (nobody there to deliver to).
     """
     count = len(publish_times(publish_hz, duration_s))
     qos = delivery_qos(depth, durability)
+    joiner_qos = delivery_qos(depth, joiner_durability or durability)
     wall0 = time.monotonic()
     ros.sim_clock()
     clock = StepClock()
@@ -668,7 +681,7 @@ def run_late_joiner(
         joiner_exec.add_node(joiner)
         spinners.append(Spinner(joiner_exec))
         clock.set(clock.now_ns, [pub, joiner])
-        joiner.join(topic, qos)
+        joiner.join(topic, joiner_qos)
         matched = wait_until(lambda: joiner.subscription.get_publisher_count() > 0, 5.0)
         if not matched:
             raise TimeoutError("the late joiner never matched the publisher")
@@ -677,10 +690,11 @@ def run_late_joiner(
         for index, t in list(joiner.got):
             records[index - 1].received = (t - origin) / 1e9
             records[index - 1].processed = records[index - 1].received  # instant callback
+        kept = joiner_qos.durability == qos.durability == DurabilityPolicy.TRANSIENT_LOCAL
         for r in records:
             if r.received is None:
                 overwritten = r.index + depth - 1
-                if durability == DurabilityPolicy.TRANSIENT_LOCAL and overwritten < count:
+                if kept and overwritten < count:
                     r.dropped = records[overwritten].published
                 else:
                     r.dropped = r.published

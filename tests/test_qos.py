@@ -77,6 +77,10 @@ def test_late_joiner_gets_nothing_when_volatile_and_the_last_depth_when_transien
     transient = qos.run_late_joiner(DurabilityPolicy.TRANSIENT_LOCAL)
     assert transient.processed == [2, 3, 4] and transient.dropped == [1]
     assert [r.received for r in transient.records[1:]] == [2.5, 2.5, 2.5]
+    volatile_joiner = qos.run_late_joiner(
+        DurabilityPolicy.TRANSIENT_LOCAL, joiner_durability=DurabilityPolicy.VOLATILE
+    )
+    assert volatile_joiner.processed == [] and volatile_joiner.dropped == [1, 2, 3, 4]
 
 
 def test_table_and_plot_come_from_the_records() -> None:
@@ -84,6 +88,8 @@ def test_table_and_plot_come_from_the_records() -> None:
     table = qos.table_markdown(records)
     assert table.splitlines()[0].startswith("| message | published")
     assert "| msg3 | 1.0 | – | – | 2.5 | – |" in table
+    html = qos.table_html(records)
+    assert html.count("<tr>") == 9 and "<td>msg3</td><td>1.0</td><td>–</td>" in html
     ax = qos.plot_timeline(records, "slow")
     assert len(ax.get_yticks()) == 8
 
