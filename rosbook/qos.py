@@ -290,7 +290,8 @@ def plot_timeline(records: Sequence[MessageRecord], title: str, ax: Any = None) 
             xs, ys = zip(*points)
             ax.scatter(xs, ys, marker=marker, color=colour, label=label, zorder=2, s=40)
     ax.set_yticks([r.index for r in records], [f"msg{r.index}" for r in records])
-    ax.invert_yaxis()
+    if records:  # first message on top (set, not toggled: axes may share y)
+        ax.set_ylim(max(r.index for r in records) + 0.5, min(r.index for r in records) - 0.5)
     ax.set_xlabel("time since the first publish (s)")
     ax.set_title(title)
     ax.grid(axis="x", alpha=0.3)
@@ -703,8 +704,9 @@ def run_late_joiner(
         for spinner in spinners:
             spinner.stop()
         ros.reset()
+    pub_kind, joiner_kind = durability.name, joiner_qos.durability.name
     name = (
-        f"{publish_hz:g} Hz, no subscriber, {durability.name.lower()} late joiner at {join_s:g} s"
+        f"{publish_hz:g} Hz, {pub_kind} publisher, {joiner_kind} subscriber joins at {join_s:g} s"
     )
     return ScenarioRun(name, records, "sim", time.monotonic() - wall0, end_ns / 1e9)
 
