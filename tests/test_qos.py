@@ -1,0 +1,136 @@
+"""rosbook.qos: the KEEP_LAST model, the measured delivery scenarios, compatibility."""
+
+from __future__ import annotations
+
+import itertools
+
+import pytest
+from rclpy.duration import Duration
+from rclpy.qos import (
+    DurabilityPolicy,
+    LivelinessPolicy,
+    QoSCompatibility,
+    QoSProfile,
+    ReliabilityPolicy,
+    qos_check_compatible,
+    qos_profile_sensor_data,
+)
+
+from rosbook import qos
+from rosbook.session import Session
+
+
+def test_model_processes_1_2_5_9_for_the_slow_subscriber() -> None:
+    assert qos.predict_processed(2, 1.7, 3, 6) == [1, 2, 5, 9, 10, 11, 12]
+    assert qos.predict_processed(2, 1.7, 3, 4) == [1, 2, 5, 6, 7, 8]
+
+
+def test_model_drops_the_oldest_when_a_message_arrives_at_a_full_queue() -> None:
+    records = qos.model_records(2, 1.7, 3, 6)
+    assert qos.dropped_indices(records) == [3, 4, 6, 7, 8]
+    assert [records[i - 1].dropped for i in (3, 4)] == [2.5, 3.0]  # at msg6's and msg7's arrival
+    assert qos.max_queue(records) == 3
+
+
+def test_model_edge_cases() -> None:
+    assert qos.predict_processed(2, 0.1, 3, 6) == list(range(1, 13))
+    assert qos.predict_processed(2, 1.7, 3, 0) == []
+    assert qos.predict_processed(2, 1.7, 1, 6) == [1, 4, 7, 11, 12]
+    assert qos.predict_processed(1, 5, 100, 4) == [1, 2, 3, 4]  # deep queue: nothing lost
+    # a finish and an arrival at the same instant: the finish comes first
+    assert qos.predict_processed(2, 1.5, 1, 3) == [1, 3, 6]
+    assert qos.predict_processed(10, 0.3, 2, 1) == [1, 2, 5, 8, 9, 10]
+    with pytest.raises(ValueError):
+        qos.predict_processed(2, 1.0, 0, 3)
+
+
+def test_publish_times_stop_before_the_duration() -> None:
+    assert qos.publish_times(2, 2.0) == [0, 0.5, 1, 1.5]
+    assert len(qos.publish_times(3, 1.0)) == 3
+    assert len(qos.publish_times(10, 0.3)) == 3
+
+
+@pytest.mark.parametrize("callback_s", [0.1, 1.7])
+def test_measured_delivery_on_sim_time_equals_the_model(callback_s: float) -> None:
+    run = qos.run_delivery(callback_s)
+    expected = qos.model_records(2, callback_s, 3, 6)
+    assert qos.timeline_differences(run.records, expected) == []
+    assert run.wall_s < run.simulated_s  # faster than real time
+
+
+def test_fast_subscriber_never_queues_more_than_one() -> None:
+    run = qos.run_delivery(0.1)
+    assert run.dropped == [] and qos.max_queue(run.records) == 1
+
+
+def test_measured_run_can_stop_at_a_horizon() -> None:
+    run = qos.run_delivery(1.7, horizon_s=4.0)
+    assert (
+        qos.timeline_differences(run.records, qos.until(qos.model_records(2, 1.7, 3, 6), 4.0)) == []
+    )
+    assert run.processed == [1, 2, 5]
+
+
+def test_late_joiner_gets_nothing_when_volatile_and_the_last_depth_when_transient_local() -> None:
+    volatile = qos.run_late_joiner(DurabilityPolicy.VOLATILE)
+    assert volatile.processed == [] and volatile.dropped == [1, 2, 3, 4]
+    transient = qos.run_late_joiner(DurabilityPolicy.TRANSIENT_LOCAL)
+    assert transient.processed == [2, 3, 4] and transient.dropped == [1]
+    assert [r.received for r in transient.records[1:]] == [2.5, 2.5, 2.5]
+    volatile_joiner = qos.run_late_joiner(
+        DurabilityPolicy.TRANSIENT_LOCAL, joiner_durability=DurabilityPolicy.VOLATILE
+    )
+    assert volatile_joiner.processed == [] and volatile_joiner.dropped == [1, 2, 3, 4]
+
+
+def test_table_and_plot_come_from_the_records() -> None:
+    records = qos.model_records(2, 1.7, 3, 4)
+    table = qos.table_markdown(records)
+    assert table.splitlines()[0].startswith("| message | published")
+    assert "| msg3 | 1.0 | – | – | 2.5 | – |" in table
+    html = qos.table_html(records)
+    assert html.count("<tr>") == 9 and "<td>msg3</td><td>1.0</td><td>–</td>" in html
+    ax = qos.plot_timeline(records, "slow")
+    assert len(ax.get_yticks()) == 8
+
+
+def profiles() -> list[QoSProfile]:
+    return [
+        QoSProfile(
+            depth=5,
+            reliability=r,
+            durability=d,
+            deadline=Duration(seconds=dl),
+            liveliness=LivelinessPolicy.AUTOMATIC,
+        )
+        for r in (ReliabilityPolicy.RELIABLE, ReliabilityPolicy.BEST_EFFORT)
+        for d in (DurabilityPolicy.VOLATILE, DurabilityPolicy.TRANSIENT_LOCAL)
+        for dl in (0, 0.1, 1.0)
+    ]
+
+
+def test_incompatible_policies_agree_with_rclpys_own_check() -> None:
+    for pub, sub in itertools.product(profiles(), profiles()):
+        ours = qos.incompatible_policies(pub, sub)
+        assert ours == qos.rclpy_incompatible_policies(pub, sub), (pub, sub)
+        verdict, reason = qos_check_compatible(pub, sub)
+        assert (verdict == QoSCompatibility.ERROR) == bool(ours), reason
+
+
+def test_sensor_data_publisher_and_default_subscription_do_not_connect() -> None:
+    assert qos.incompatible_policies(qos_profile_sensor_data, QoSProfile(depth=10)) == {
+        "reliability"
+    }
+    assert qos.incompatible_policies(QoSProfile(depth=10), qos_profile_sensor_data) == set()
+
+
+def test_incompatible_pair_raises_events_on_both_sides_and_receives_nothing(
+    session: Session,
+) -> None:
+    best_effort = QoSProfile(depth=5, reliability=ReliabilityPolicy.BEST_EFFORT)
+    report = qos.watch_incompatibility(best_effort, QoSProfile(depth=5))
+    assert report.publisher_events and report.subscription_events
+    assert set(report.publisher_events) == set(report.subscription_events) == {"RELIABILITY"}
+    assert (report.connected, report.received) == (False, 0)
+    fine = qos.watch_incompatibility(QoSProfile(depth=5), best_effort)
+    assert (fine.connected, fine.received, fine.publisher_events) == (True, 5, [])
