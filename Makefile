@@ -49,6 +49,7 @@ bench: $(STAMP)
 
 lint: $(STAMP)
 	$(BIN)/ruff check rosbook autograder tests benchmarks solutions
+	$(BIN)/ruff format --check rosbook autograder tests benchmarks
 
 clean:
 	rm -rf _build grading

@@ -14,6 +14,7 @@ import json
 import os
 import shutil
 import sys
+import time
 import traceback
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
@@ -108,7 +109,9 @@ def grade(job: Job) -> Result:
     tampered = locked_cell_changes(submitted, released)
 
     grader = api(scratch, **{"Execute.timeout": job.cell_timeout})
+    started = time.monotonic()
     outcome = grader.autograde(job.assignment_id, job.student_id, force=True, create=True)
+    print(f"[grader] autograde took {time.monotonic() - started:.2f} s", flush=True)
     if not outcome["success"]:
         log = outcome.get("log", "") + outcome.get("error", "")
         if "DeadKernelError" in log or "Kernel died" in log or "kernel died" in log:
@@ -139,7 +142,9 @@ def grade(job: Job) -> Result:
     )
     slow = timed_out_cells(autograded)
 
+    started = time.monotonic()
     feedback = grader.generate_feedback(job.assignment_id, job.student_id, force=True)
+    print(f"[grader] feedback took {time.monotonic() - started:.2f} s", flush=True)
     page = (
         scratch
         / "feedback"
