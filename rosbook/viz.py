@@ -1,0 +1,337 @@
+"""MeshCat views of a URDF robot: the book's stand-in for RViz, live or recorded.
+
+A :class:`RobotView` draws every ``<visual>`` of a :class:`rosbook.urdf.Robot` (box,
+cylinder, sphere, mesh; with its material colour and origin) at the pose forward
+kinematics gives it, shows each link's frame as a triad, moves the robot when joint
+positions or the base pose change, and records animations.
+
+It draws into a MeshCat ``Visualizer``. Without one it draws into a :class:`Recorder`:
+MeshCat's own command objects are kept instead of being sent to a server, so no
+process is started. :meth:`RobotView.scene` turns what was recorded into a
+:class:`Scene`, which a notebook cell displays as an interactive 3D view. In the built
+book the viewer's JavaScript is loaded once from ``_static`` (see
+``rosbook.sphinx_meshcat``), so a page carries only its scenes' commands.
+"""
+
+from __future__ import annotations
+
+import base64
+import html
+import json
+import math
+import os
+import signal
+import subprocess
+import uuid
+from collections.abc import Iterable, Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+import meshcat
+import meshcat.geometry as g
+import numpy as np
+import trimesh
+import umsgpack
+from meshcat.animation import Animation
+
+from rosbook.urdf import Robot, _mesh_path
+
+#: The MeshCat viewer (three.js and MeshCat's JavaScript, about 0.85 MB, minified).
+VIEWER_JS = Path(meshcat.__file__).parent / "viewer" / "dist" / "main.min.js"
+#: Where the book serves the viewer from, relative to its ``_static`` folder.
+VIEWER_STATIC_NAME = "meshcat/main.min.js"
+#: The class of the HTML element a scene is drawn in (the Sphinx extension looks for it).
+SCENE_CLASS = "rosbook-meshcat-scene"
+
+#: three.js draws a cylinder along its y axis, URDF along z: turn y onto z (+90 deg about x).
+CYLINDER_Y_TO_Z = np.array(
+    [[1.0, 0.0, 0.0, 0.0], [0.0, 0.0, -1.0, 0.0], [0.0, 1.0, 0.0, 0.0], [0.0, 0.0, 0.0, 1.0]]
+)
+DEFAULT_RGBA = (0.75, 0.75, 0.75, 1.0)
+
+
+class Recorder:
+    """A stand-in for MeshCat's server window: keeps each command, sends nothing."""
+
+    def __init__(self) -> None:
+        self.commands: list[dict[str, Any]] = []
+
+    def send(self, command: Any) -> None:
+        self.commands.append(command.lower())
+
+
+def recording_visualizer() -> meshcat.Visualizer:
+    """A MeshCat ``Visualizer`` that records into a :class:`Recorder` (no server)."""
+    return meshcat.Visualizer(window=Recorder())
+
+
+def live_visualizer() -> meshcat.Visualizer:
+    """A MeshCat ``Visualizer`` with its server on localhost (for JupyterLab).
+
+    The server is a separate process that outlives the kernel unless stopped: call
+    :func:`close_live` when done (a notebook's last cell, or ``try/finally``).
+    """
+    return meshcat.Visualizer()
+
+
+def close_live(vis: meshcat.Visualizer) -> None:
+    """Stop the MeshCat server process that ``vis`` started, and its process group."""
+    proc = getattr(vis.window, "server_proc", None)
+    if proc is None or proc.poll() is not None:
+        return
+    try:
+        os.killpg(proc.pid, signal.SIGTERM)
+    except ProcessLookupError:
+        return
+    try:
+        proc.wait(timeout=5)
+    except subprocess.TimeoutExpired:
+        os.killpg(proc.pid, signal.SIGKILL)
+        proc.wait(timeout=5)
+    for stream in (proc.stdout, proc.stderr):
+        if stream is not None:
+            stream.close()
+
+
+def rgb_hex(rgba: Sequence[float]) -> int:
+    """0xRRGGBB from an URDF ``rgba`` (components 0..1)."""
+    r, g_, b = (min(255, max(0, round(255 * c))) for c in rgba[:3])
+    return (r << 16) | (g_ << 8) | b
+
+
+def planar_pose(x: float, y: float, yaw: float) -> np.ndarray:
+    """The 4x4 pose of a robot base at (x, y) on the floor, heading ``yaw`` (rad)."""
+    pose = np.eye(4)
+    c, s = math.cos(yaw), math.sin(yaw)
+    pose[:2, :2] = [[c, -s], [s, c]]
+    pose[:2, 3] = x, y
+    return pose
+
+
+class Scene:
+    """Recorded MeshCat commands, shown as an interactive 3D view by a notebook.
+
+    ``_repr_html_`` gives a ``<div>`` and a script that replays the commands into a
+    ``MeshCat.Viewer``. The viewer's JavaScript is *not* inlined: the book loads it once
+    per page from ``_static`` (the Sphinx extension adds it to every page with a scene).
+    """
+
+    def __init__(self, commands: Iterable[dict[str, Any]], height: int = 360) -> None:
+        self.commands = list(commands)
+        self.height = height
+
+    @property
+    def packed(self) -> list[bytes]:
+        """Each command as MeshCat's viewer receives it (msgpack)."""
+        return [umsgpack.packb(c) for c in self.commands]
+
+    @property
+    def paths(self) -> list[str]:
+        """Every scene-tree path a command touches, in order, without repeats."""
+        seen: dict[str, None] = {}
+        for c in self.commands:
+            if "path" in c:
+                seen[c["path"]] = None
+            for animation in c.get("animations", []):
+                seen[animation["path"]] = None
+        return list(seen)
+
+    def nbytes(self) -> int:
+        return sum(len(p) for p in self.packed)
+
+    def payload(self) -> str:
+        """The commands for the page: a JSON list of base64 msgpack strings."""
+        return json.dumps([base64.b64encode(p).decode() for p in self.packed])
+
+    def _repr_html_(self) -> str:
+        element = f"meshcat-{uuid.uuid4().hex[:12]}"
+        return (
+            f'<div class="{SCENE_CLASS}" id="{element}" '
+            f'style="height: {self.height}px; width: 100%; position: relative; '
+            f'resize: vertical; overflow: hidden"></div>\n'
+            f'<script type="application/json" id="{element}-commands">'
+            f"{html.escape(self.payload(), quote=False)}</script>\n"
+            f"<script>{_PLAYER_JS % {'id': element}}</script>\n"
+        )
+
+    def standalone_html(self, viewer_src: str) -> str:
+        """A whole HTML page with this scene, loading the viewer from ``viewer_src``."""
+        return (
+            "<!DOCTYPE html><html><head><meta charset='utf-8'><title>MeshCat scene</title>"
+            f"<script src='{viewer_src}'></script></head><body>"
+            f"{self._repr_html_()}</body></html>"
+        )
+
+    def __repr__(self) -> str:
+        return f"<Scene: {len(self.commands)} MeshCat commands, {self.nbytes()} bytes>"
+
+
+# Replays a scene's commands into a viewer once the shared viewer script has loaded.
+_PLAYER_JS = """
+(function () {
+  var id = "%(id)s";
+  function play() {
+    var pane = document.getElementById(id);
+    if (typeof MeshCat === "undefined") {
+      pane.textContent = "The 3D view needs the MeshCat viewer script; see the book's "
+        + "built HTML, or use the live view in JupyterLab.";
+      return;
+    }
+    var viewer = new MeshCat.Viewer(pane);
+    var commands = JSON.parse(document.getElementById(id + "-commands").textContent);
+    commands.forEach(function (b64) {
+      var bytes = Uint8Array.from(atob(b64), function (c) { return c.charCodeAt(0); });
+      viewer.handle_command_bytearray(bytes);
+    });
+    pane.meshcatViewer = viewer;
+  }
+  if (document.readyState === "complete") { play(); }
+  else { window.addEventListener("load", play); }
+})();
+"""
+
+
+class RobotView:
+    """A robot drawn in MeshCat from its URDF, moved by joint positions and base pose.
+
+    ``vis`` is a MeshCat ``Visualizer`` (a live one, or by default one that records).
+    The scene tree is ``/meshcat/<prefix>/<link>/visual_<i>`` and ``.../frame``; each
+    link node carries its pose from forward kinematics, and ``/meshcat/<prefix>`` the
+    base pose on the floor, so a 2D simulator can drive the twin with
+    :meth:`set_base_pose` and :meth:`set_joints`.
+    """
+
+    def __init__(
+        self,
+        robot: Robot,
+        vis: meshcat.Visualizer | None = None,
+        prefix: str | None = None,
+        frames: bool = False,
+        frame_scale: float = 0.1,
+        camera: Sequence[float] | None = None,
+    ) -> None:
+        self.robot = robot
+        self.vis = vis if vis is not None else recording_visualizer()
+        self.prefix = prefix or robot.name
+        self.positions: dict[str, float] = {}
+        self.base = np.eye(4)
+        self.frame_scale = frame_scale
+        self._draw(camera)
+        self.show_frames(frames)
+        self.set_joints({})
+
+    @property
+    def root(self) -> meshcat.Visualizer:
+        return self.vis[self.prefix]
+
+    def _draw(self, camera: Sequence[float] | None) -> None:
+        self.root.delete()
+        for link in self.robot.model.robot.links:
+            for i, visual in enumerate(link.visuals):
+                drawn = self._geometry(visual)
+                if drawn is None:
+                    continue
+                geometry, correction = drawn
+                rgba = self._rgba(visual)
+                material = g.MeshLambertMaterial(
+                    color=rgb_hex(rgba), opacity=float(rgba[3]), transparent=rgba[3] < 1
+                )
+                node = self.root[link.name][f"visual_{i}"]
+                node.set_object(geometry, material)
+                origin = np.eye(4) if visual.origin is None else np.asarray(visual.origin)
+                node.set_transform(origin @ correction)
+            self.root[link.name]["frame"].set_object(g.triad(self.frame_scale))
+        if camera is not None:
+            self.vis["/Cameras/default/rotated/<object>"].set_property(
+                "position", [float(camera[0]), float(camera[2]), float(-camera[1])]
+            )
+
+    def _geometry(self, visual: Any) -> tuple[g.Geometry, np.ndarray] | None:
+        """MeshCat geometry for a URDF visual, and the transform that matches the axes."""
+        shape = visual.geometry
+        if shape.box is not None:
+            return g.Box([float(v) for v in shape.box.size]), np.eye(4)
+        if shape.cylinder is not None:
+            c = shape.cylinder
+            return g.Cylinder(float(c.length), float(c.radius)), CYLINDER_Y_TO_Z
+        if shape.sphere is not None:
+            return g.Sphere(float(shape.sphere.radius)), np.eye(4)
+        if shape.mesh is not None:
+            path = _mesh_path(shape.mesh.filename, self.robot.base_dir)
+            mesh = trimesh.load(str(path), force="mesh")
+            vertices = np.asarray(mesh.vertices, dtype=float)
+            if shape.mesh.scale is not None:
+                vertices = vertices * np.asarray(shape.mesh.scale, dtype=float)
+            return g.TriangularMeshGeometry(vertices, np.asarray(mesh.faces)), np.eye(4)
+        return None
+
+    def _rgba(self, visual: Any) -> tuple[float, ...]:
+        material = visual.material
+        if material is None:
+            return DEFAULT_RGBA
+        if material.color is not None:
+            return tuple(float(v) for v in material.color.rgba)
+        named = self.robot.materials.get(material.name)
+        if named is not None and named.color is not None:
+            return tuple(float(v) for v in named.color.rgba)
+        return DEFAULT_RGBA
+
+    def show_frames(self, visible: bool = True) -> None:
+        """Show or hide every link's frame triad (x red, y green, z blue)."""
+        for link in self.robot.links:
+            self.root[link]["frame"].set_property("visible", bool(visible))
+
+    def set_joints(self, positions: Mapping[str, float]) -> None:
+        """Move the joints named in ``positions`` (others keep their position)."""
+        self.positions.update({k: float(v) for k, v in positions.items()})
+        for link, pose in self.robot.poses(self.positions).items():
+            self.root[link].set_transform(pose)
+
+    def set_base_pose(self, x: float, y: float, yaw: float) -> None:
+        """Place the robot's root link at (x, y) on the floor, heading ``yaw`` (rad)."""
+        self.base = planar_pose(x, y, yaw)
+        self.root.set_transform(self.base)
+
+    def animate(
+        self,
+        frames: Iterable[Mapping[str, float] | tuple[Mapping[str, float], Sequence[float]]],
+        fps: int = 30,
+        repetitions: int = 1,
+    ) -> Animation:
+        """Record and play an animation, one frame per item of ``frames``.
+
+        An item is a joint-position dict, or ``(positions, (x, y, yaw))`` to move the
+        base too. The viewer interpolates between frames and offers play controls.
+        """
+        animation = Animation(default_framerate=fps)
+        positions = dict(self.positions)
+        for k, item in enumerate(frames):
+            if isinstance(item, tuple):
+                joints, base = item
+                base_pose: np.ndarray | None = planar_pose(*base)
+            else:
+                joints, base_pose = item, None
+            positions.update(joints)
+            with animation.at_frame(self.vis, k) as frame:
+                for link, pose in self.robot.poses(positions).items():
+                    frame[self.prefix][link].set_transform(pose)
+                if base_pose is not None:
+                    frame[self.prefix].set_transform(base_pose)
+        self.vis.set_animation(animation, play=True, repetitions=repetitions)
+        return animation
+
+    def scene(self, height: int = 360) -> Scene:
+        """Everything recorded so far, as a :class:`Scene` (needs a recording view)."""
+        window = self.vis.window
+        if not isinstance(window, Recorder):
+            raise TypeError("scene() needs a recording view: RobotView(robot) without vis")
+        return Scene(window.commands, height=height)
+
+
+def show(robot: Robot, positions: Mapping[str, float] | None = None, **kwargs: Any) -> Scene:
+    """A recorded scene of ``robot`` at ``positions``, frames shown: one call per picture."""
+    height = kwargs.pop("height", 360)
+    kwargs.setdefault("frames", True)
+    view = RobotView(robot, **kwargs)
+    view.set_joints(positions or {})
+    return view.scene(height=height)
