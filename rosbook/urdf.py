@@ -47,7 +47,9 @@ def rpy_matrix(roll: float, pitch: float, yaw: float) -> np.ndarray:
     return rz @ ry @ rx
 
 
-def transform(xyz: tuple[float, float, float] = (0, 0, 0), rpy: tuple[float, ...] = (0, 0, 0)):
+def transform(
+    xyz: tuple[float, float, float] = (0, 0, 0), rpy: tuple[float, float, float] = (0, 0, 0)
+) -> np.ndarray:
     """A 4x4 homogeneous transform from a URDF ``<origin xyz rpy>``."""
     t = np.eye(4)
     t[:3, :3] = rpy_matrix(*rpy)
@@ -338,7 +340,7 @@ class Robot:
         """The origin of ``link`` in the root frame, as (x, y, z)."""
         return self.pose(link, positions)[:3, 3]
 
-    def axis_in_root(self, joint: str, positions: Mapping[str, float] | None = None):
+    def axis_in_root(self, joint: str, positions: Mapping[str, float] | None = None) -> np.ndarray:
         """The unit axis of ``joint`` expressed in the root frame."""
         j = self.joint(joint)
         frame = self.pose(j.parent, positions) @ self.joint_transform(joint, 0.0)
