@@ -16,6 +16,7 @@ book the viewer's JavaScript is loaded once from ``_static`` (see
 from __future__ import annotations
 
 import base64
+import io
 import json
 import math
 import os
@@ -337,3 +338,90 @@ def show(robot: Robot, positions: Mapping[str, float] | None = None, **kwargs: A
     view = RobotView(robot, **kwargs)
     view.set_joints(positions or {})
     return view.scene(height=height)
+
+
+# --- a still picture, for places without a 3D viewer (lab feedback pages) -------------
+
+
+def _visual_mesh(robot: Robot, visual: Any) -> trimesh.Trimesh | None:
+    """A visual's shape as triangles in its link's frame (URDF axes: cylinders along z)."""
+    shape = visual.geometry
+    if shape.box is not None:
+        mesh = trimesh.creation.box(extents=[float(v) for v in shape.box.size])
+    elif shape.cylinder is not None:
+        c = shape.cylinder
+        mesh = trimesh.creation.cylinder(float(c.radius), float(c.length), sections=24)
+    elif shape.sphere is not None:
+        mesh = trimesh.creation.icosphere(subdivisions=2, radius=float(shape.sphere.radius))
+    elif shape.mesh is not None:
+        path = _mesh_path(shape.mesh.filename, robot.base_dir)
+        mesh = trimesh.load(str(path), force="mesh")
+        if shape.mesh.scale is not None:
+            mesh.apply_scale(np.asarray(shape.mesh.scale, dtype=float))
+    else:
+        return None
+    if visual.origin is not None:
+        mesh.apply_transform(np.asarray(visual.origin, dtype=float))
+    return mesh
+
+
+def sketch(
+    robot: Robot, positions: Mapping[str, float] | None = None, title: str | None = None
+) -> bytes:
+    """A small PNG of ``robot``: seen from above (x right, y up) and from its right side.
+
+    Flat-coloured triangles drawn far to near; enough to see a part in the wrong place
+    or turned the wrong way, at a few tens of kilobytes (for lab feedback pages).
+    """
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.collections import PolyCollection
+    from matplotlib.figure import Figure
+
+    view = RobotView.__new__(RobotView)  # only for its material lookup
+    view.robot = robot
+    triangles, colours = [], []
+    poses = robot.poses(positions or {})
+    for link in robot.model.robot.links:
+        for visual in link.visuals:
+            mesh = _visual_mesh(robot, visual)
+            if mesh is None:
+                continue
+            mesh.apply_transform(poses[link.name])
+            triangles.append(np.asarray(mesh.triangles))
+            colours.extend([view._rgba(visual)] * len(mesh.faces))
+    figure = Figure(figsize=(6.4, 3.0), dpi=72)
+    FigureCanvasAgg(figure)
+    if not triangles:
+        figure.text(0.5, 0.5, "no <visual> to draw", ha="center")
+    else:
+        tris = np.concatenate(triangles)
+        rgba = np.array(colours)
+        for k, (name, (u, v), depth) in enumerate(
+            [("from above", (0, 1), 2), ("from the right side (-y)", (0, 2), 1)]
+        ):
+            axes = figure.add_subplot(1, 2, k + 1)
+            order = np.argsort(tris[:, :, depth].mean(axis=1))
+            if depth == 1:
+                order = order[::-1]  # seen from -y: large y is far, drawn first
+            axes.add_collection(
+                PolyCollection(
+                    tris[order][:, :, [u, v]],
+                    facecolors=rgba[order],
+                    edgecolors=(0, 0, 0, 0.25),
+                    linewidths=0.2,
+                )
+            )
+            axes.autoscale_view()
+            axes.set_aspect("equal")
+            axes.set_title(name, fontsize=9)
+            axes.set_xlabel("x (m)", fontsize=8)
+            axes.set_ylabel("y (m)" if v == 1 else "z (m)", fontsize=8)
+            axes.tick_params(labelsize=7)
+            axes.grid(alpha=0.3)
+            axes.set_facecolor("#dde3ea")
+    if title:
+        figure.suptitle(title, fontsize=10)
+    figure.tight_layout()
+    buffer = io.BytesIO()
+    figure.savefig(buffer, format="png")
+    return buffer.getvalue()
