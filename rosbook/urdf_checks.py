@@ -125,8 +125,14 @@ def assert_rolls_forward(robot: Robot, wheel: str, angle: float = 0.1) -> None:
     )
     assert abs(axis[1]) > 0.99, (
         f"{wheel!r} turns about {_fmt(axis)} in base_link, but a wheel that rolls along x "
-        "turns about base_link's y axis; with the joint rpy (pi/2, 0, 0) the wheel's own z "
-        "is base_link's -y"
+        "turns about base_link's y axis"
+        + (
+            ": it lies flat and spins like a turntable. Lay it on its side with "
+            "rpy=\"1.570796 0 0\" in the joint's <origin>; then the wheel's own z is "
+            "base_link's -y"
+            if abs(axis[2]) > 0.99
+            else "; with the joint rpy (pi/2, 0, 0) the wheel's own z is base_link's -y"
+        )
     )
     contact = pose[:3, 3] + np.array([0.0, 0.0, -radius])
     before = robot.pose(wheel)

@@ -108,6 +108,21 @@ def planar_pose(x: float, y: float, yaw: float) -> np.ndarray:
     return pose
 
 
+def visual_rgba(robot: Robot, visual: Any) -> tuple[float, ...]:
+    """A visual's colour: its own ``<material><color>``, else the robot's material of
+    that name (URDF lets a link refer to a material defined once at the top), else grey.
+    """
+    material = visual.material
+    if material is None:
+        return DEFAULT_RGBA
+    if material.color is not None:
+        return tuple(float(v) for v in material.color.rgba)
+    named = robot.materials.get(material.name)
+    if named is not None and named.color is not None:
+        return tuple(float(v) for v in named.color.rgba)
+    return DEFAULT_RGBA
+
+
 class Scene:
     """Recorded MeshCat commands, shown as an interactive 3D view by a notebook.
 
@@ -149,9 +164,12 @@ class Scene:
     def _repr_html_(self) -> str:
         element = f"meshcat-{uuid.uuid4().hex[:12]}"
         return (
+            # MeshCat puts its control panel in the pane's parent, at its top right:
+            # the outer div is that (positioned) parent.
             f'<div class="{SCENE_CLASS}" id="{element}" '
             f'style="height: {self.height}px; width: 100%; position: relative; '
-            f'resize: vertical; overflow: hidden"></div>\n'
+            f'overflow: hidden">'
+            f'<div id="{element}-pane" style="width: 100%; height: 100%"></div></div>\n'
             f'<script type="application/json" id="{element}-commands">'
             f"{self.payload()}</script>\n"
             f"<script>{_PLAYER_JS % {'id': element}}</script>\n"
@@ -174,7 +192,7 @@ _PLAYER_JS = """
 (function () {
   var id = "%(id)s";
   function play() {
-    var pane = document.getElementById(id);
+    var pane = document.getElementById(id + "-pane");
     if (typeof MeshCat === "undefined") {
       pane.textContent = "The 3D view needs the MeshCat viewer script; see the book's "
         + "built HTML, or use the live view in JupyterLab.";
@@ -235,7 +253,7 @@ class RobotView:
                 if drawn is None:
                     continue
                 geometry, correction = drawn
-                rgba = self._rgba(visual)
+                rgba = visual_rgba(self.robot, visual)
                 material = g.MeshLambertMaterial(
                     color=rgb_hex(rgba), opacity=float(rgba[3]), transparent=rgba[3] < 1
                 )
@@ -267,17 +285,6 @@ class RobotView:
                 vertices = vertices * np.asarray(shape.mesh.scale, dtype=float)
             return g.TriangularMeshGeometry(vertices, np.asarray(mesh.faces)), np.eye(4)
         return None
-
-    def _rgba(self, visual: Any) -> tuple[float, ...]:
-        material = visual.material
-        if material is None:
-            return DEFAULT_RGBA
-        if material.color is not None:
-            return tuple(float(v) for v in material.color.rgba)
-        named = self.robot.materials.get(material.name)
-        if named is not None and named.color is not None:
-            return tuple(float(v) for v in named.color.rgba)
-        return DEFAULT_RGBA
 
     def show_frames(self, visible: bool = True) -> None:
         """Show or hide every link's frame triad (x red, y green, z blue)."""
@@ -377,8 +384,6 @@ def sketch(
     from matplotlib.collections import PolyCollection
     from matplotlib.figure import Figure
 
-    view = RobotView.__new__(RobotView)  # only for its material lookup
-    view.robot = robot
     triangles, colours = [], []
     poses = robot.poses(positions or {})
     for link in robot.model.robot.links:
@@ -388,7 +393,7 @@ def sketch(
                 continue
             mesh.apply_transform(poses[link.name])
             triangles.append(np.asarray(mesh.triangles))
-            colours.extend([view._rgba(visual)] * len(mesh.faces))
+            colours.extend([visual_rgba(robot, visual)] * len(mesh.faces))
     figure = Figure(figsize=(6.4, 3.0), dpi=72)
     FigureCanvasAgg(figure)
     if not triangles:

@@ -162,3 +162,17 @@ def test_scene_needs_a_recording_view(bot: urdf.Robot) -> None:
     view = viz.RobotView(bot, vis=meshcat.Visualizer(window=Window()))
     with pytest.raises(TypeError, match="recording view"):
         view.scene()
+
+
+def test_sketch_is_a_small_png_showing_the_robots_colours(bot: urdf.Robot) -> None:
+    import io
+
+    from matplotlib.image import imread
+
+    png = viz.sketch(bot, title="bot")
+    assert png.startswith(b"\x89PNG") and len(png) < 60_000
+    pixels = imread(io.BytesIO(png))[:, :, :3]
+    red = (pixels[:, :, 0] > 0.9) & (pixels[:, :, 1] < 0.2) & (pixels[:, :, 2] < 0.2)
+    yellow = (pixels[:, :, 0] > 0.9) & (pixels[:, :, 1] > 0.9) & (pixels[:, :, 2] < 0.2)
+    assert red.sum() > 100, "the red wheels are not drawn"
+    assert yellow.sum() > 1000, "the yellow base is not drawn"
