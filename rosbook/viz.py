@@ -15,6 +15,7 @@ book the viewer's JavaScript is loaded once from ``_static`` (see
 
 from __future__ import annotations
 
+import atexit
 import base64
 import io
 import json
@@ -22,6 +23,7 @@ import math
 import os
 import signal
 import subprocess
+import sys
 import uuid
 from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
@@ -33,6 +35,7 @@ import numpy as np
 import trimesh
 import umsgpack
 from meshcat.animation import Animation
+from meshcat.visualizer import ViewerWindow
 
 from rosbook.urdf import Robot, _mesh_path
 
@@ -65,32 +68,73 @@ def recording_visualizer() -> meshcat.Visualizer:
     return meshcat.Visualizer(window=Recorder())
 
 
+# Runs MeshCat's server after asking Linux to SIGTERM it when its parent dies.
+_SERVER = (
+    "import ctypes, runpy, signal, sys\n"
+    "if sys.platform == 'linux':\n"
+    "    ctypes.CDLL(None).prctl(1, signal.SIGTERM)  # PR_SET_PDEATHSIG\n"
+    "sys.argv = ['meshcat-server']\n"
+    "runpy.run_module('meshcat.servers.zmqserver', run_name='__main__')\n"
+)
+
+
+def start_server() -> tuple[subprocess.Popen[bytes], str, str]:
+    """Start MeshCat's server on localhost; return the process, its zmq and web URLs.
+
+    Like ``meshcat.servers.zmqserver.start_zmq_server_as_subprocess``, but the server
+    is also ended when the process that started it dies, even by SIGKILL (a killed
+    Jupyter kernel): otherwise it would keep its ports until someone kills it.
+    """
+    proc = subprocess.Popen(
+        [sys.executable, "-u", "-c", _SERVER],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.DEVNULL,
+        start_new_session=True,  # a notebook's interrupt (SIGINT) must not stop it
+    )
+    assert proc.stdout is not None
+    line = ""
+    while not line.startswith("zmq_url="):
+        line = proc.stdout.readline().decode().strip()
+        if not line and proc.poll() is not None:
+            raise RuntimeError(f"the MeshCat server exited with code {proc.returncode}")
+    zmq_url = line.split("=", 1)[1]
+    web_url = proc.stdout.readline().decode().strip().split("=", 1)[1]
+    atexit.register(_stop, proc)
+    return proc, zmq_url, web_url
+
+
 def live_visualizer() -> meshcat.Visualizer:
     """A MeshCat ``Visualizer`` with its server on localhost (for JupyterLab).
 
-    The server is a separate process that outlives the kernel unless stopped: call
-    :func:`close_live` when done (a notebook's last cell, or ``try/finally``).
+    Call :func:`close_live` when done. The server also stops when this Python process
+    exits or is killed.
     """
-    return meshcat.Visualizer()
+    proc, zmq_url, _ = start_server()
+    window = ViewerWindow(zmq_url=zmq_url, start_server=False, server_args=[])
+    window.server_proc = proc
+    return meshcat.Visualizer(window=window)
 
 
 def close_live(vis: meshcat.Visualizer) -> None:
-    """Stop the MeshCat server process that ``vis`` started, and its process group."""
+    """Stop the MeshCat server process that ``vis`` started."""
     proc = getattr(vis.window, "server_proc", None)
-    if proc is None or proc.poll() is not None:
-        return
-    try:
-        os.killpg(proc.pid, signal.SIGTERM)
-    except ProcessLookupError:
-        return
-    try:
-        proc.wait(timeout=5)
-    except subprocess.TimeoutExpired:
-        os.killpg(proc.pid, signal.SIGKILL)
-        proc.wait(timeout=5)
-    for stream in (proc.stdout, proc.stderr):
-        if stream is not None:
-            stream.close()
+    if proc is not None:
+        _stop(proc)
+
+
+def _stop(proc: subprocess.Popen[bytes]) -> None:
+    """End a server process and its process group, and reap it."""
+    if proc.poll() is None:
+        try:
+            os.killpg(proc.pid, signal.SIGTERM)
+            proc.wait(timeout=5)
+        except ProcessLookupError:
+            pass
+        except subprocess.TimeoutExpired:
+            os.killpg(proc.pid, signal.SIGKILL)
+            proc.wait(timeout=5)
+    if proc.stdout is not None:
+        proc.stdout.close()
 
 
 def rgb_hex(rgba: Sequence[float]) -> int:

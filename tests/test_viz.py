@@ -6,6 +6,9 @@ import base64
 import json
 import math
 import re
+import subprocess
+import sys
+import time
 from pathlib import Path
 from typing import Any
 
@@ -176,3 +179,35 @@ def test_sketch_is_a_small_png_showing_the_robots_colours(bot: urdf.Robot) -> No
     yellow = (pixels[:, :, 0] > 0.9) & (pixels[:, :, 1] > 0.9) & (pixels[:, :, 2] < 0.2)
     assert red.sum() > 100, "the red wheels are not drawn"
     assert yellow.sum() > 1000, "the yellow base is not drawn"
+
+
+def _ended(pid: int) -> bool:
+    try:
+        return Path(f"/proc/{pid}/stat").read_text().split()[2] in ("Z", "X")
+    except FileNotFoundError:
+        return True
+
+
+@pytest.mark.skipif(sys.platform != "linux", reason="PR_SET_PDEATHSIG is Linux only")
+def test_live_server_ends_when_its_kernel_is_killed() -> None:
+    script = (
+        "from rosbook import viz\n"
+        "vis = viz.live_visualizer()\n"
+        "print(vis.window.server_proc.pid, flush=True)\n"
+        "import time; time.sleep(30)\n"
+    )
+    kernel = subprocess.Popen(
+        [sys.executable, "-c", script], stdout=subprocess.PIPE, text=True, cwd=Path.cwd()
+    )
+    try:
+        assert kernel.stdout is not None
+        lines = [kernel.stdout.readline() for _ in range(3)]
+        server = int(next(line for line in lines if line.strip().isdigit()))
+        assert not _ended(server)
+    finally:
+        kernel.kill()
+        kernel.wait()
+    deadline = time.monotonic() + 5
+    while not _ended(server) and time.monotonic() < deadline:
+        time.sleep(0.05)
+    assert _ended(server), "the MeshCat server outlived its killed kernel"
