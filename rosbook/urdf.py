@@ -84,7 +84,7 @@ def _require(node: ET.Element, attribute: str, element: str) -> str:
     return value
 
 
-def _mesh_path(filename: str, base_dir: Path | None) -> Path | None:
+def mesh_path(filename: str, base_dir: Path | None) -> Path | None:
     """Where a mesh's ``filename`` points on disk (None for package:// without ROS)."""
     if filename.startswith("file://"):
         return Path(filename[len("file://") :])
@@ -213,7 +213,7 @@ def _check_part(part: ET.Element, element: str, base_dir: Path | None) -> None:
         _numbers(_require(shape, "radius", where), 1, where, "radius")
     elif shape.tag == "mesh":
         filename = _require(shape, "filename", where)
-        path = _mesh_path(filename, base_dir)
+        path = mesh_path(filename, base_dir)
         if path is None or not path.is_file():
             raise URDFError(where, f"mesh file {filename!r} not found (looked for {path})")
     else:
@@ -277,16 +277,17 @@ class Robot:
         return None if j is None else self.joint(j.name)
 
     def tree(self) -> str:
-        """The link/joint tree as indented text, root first."""
+        """The link/joint tree as indented text, root first (like ``urdf_to_graphviz``)."""
         lines = [self.root]
 
-        def walk(link: str, depth: int) -> None:
-            for j in self._joints.values():
-                if j.parent == link:
-                    lines.append(f"{'    ' * depth}└─ {j.name} ({j.type}) ─> {j.child}")
-                    walk(j.child, depth + 1)
+        def walk(link: str, indent: str) -> None:
+            below = [j for j in self._joints.values() if j.parent == link]
+            for k, j in enumerate(below):
+                last = k == len(below) - 1
+                lines.append(f"{indent}{'└─' if last else '├─'} {j.name} ({j.type}) -> {j.child}")
+                walk(j.child, indent + ("   " if last else "│  "))
 
-        walk(self.root, 1)
+        walk(self.root, "")
         return "\n".join(lines)
 
     def joint_transform(self, name: str, position: float = 0.0) -> np.ndarray:
@@ -373,7 +374,7 @@ def load(source: str | os.PathLike[str], base_dir: str | os.PathLike[str] | None
     mesh_dir = str(folder or Path.cwd())
 
     def find_mesh(filename: str) -> str:
-        return str(_mesh_path(filename, Path(mesh_dir)))
+        return str(mesh_path(filename, Path(mesh_dir)))
 
     model = yourdfpy.URDF.load(
         io.BytesIO(xml.encode()),

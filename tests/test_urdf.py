@@ -64,7 +64,13 @@ def test_the_lecture_robot_loads_as_a_tree_below_base_link() -> None:
     ]
     assert robot.joint("base_link_left_wheel").type == "continuous"
     assert robot.moving_joints == ["base_link_left_wheel", "base_link_right_wheel"]
-    assert "└─ base_link_right_wheel (continuous) ─> right_wheel" in robot.tree()
+    assert robot.tree().splitlines() == [
+        "base_link",
+        "├─ base_link_left_wheel (continuous) -> left_wheel",
+        "├─ base_link_right_wheel (continuous) -> right_wheel",
+        "├─ base_link_caster (fixed) -> caster",
+        "└─ base_link_laser (fixed) -> laser_frame",
+    ]
 
 
 def test_a_urdf_string_loads_like_a_file() -> None:
