@@ -211,3 +211,10 @@ def test_live_server_ends_when_its_kernel_is_killed() -> None:
     while not _ended(server) and time.monotonic() < deadline:
         time.sleep(0.05)
     assert _ended(server), "the MeshCat server outlived its killed kernel"
+
+
+def test_a_scene_exports_as_a_standalone_page_loading_a_given_viewer(bot: urdf.Robot) -> None:
+    page = viz.show(bot).standalone_html("meshcat/main.min.js")
+    assert page.startswith("<!DOCTYPE html>")
+    assert page.count("<script src='meshcat/main.min.js'></script>") == 1
+    assert viz.SCENE_CLASS in page and len(page) < 100_000
