@@ -11,13 +11,14 @@ Enable it in ``_config.yml``: ``sphinx: extra_extensions: [rosbook.sphinx_meshca
 
 from __future__ import annotations
 
+import os
 import shutil
 from pathlib import Path
 from typing import Any
 
 from sphinx.application import Sphinx
 
-from rosbook.viz import SCENE_CLASS, VIEWER_JS, VIEWER_STATIC_NAME
+from rosbook.viz import SCENE_CLASS, VIEWER_JS, VIEWER_MODE_VARIABLE, VIEWER_STATIC_NAME
 
 
 def add_viewer_to_scene_pages(
@@ -41,6 +42,9 @@ def copy_viewer(app: Sphinx, exception: Exception | None) -> None:
 
 
 def setup(app: Sphinx) -> dict[str, Any]:
+    # The chapters' kernels start after this and inherit it: their scenes leave the
+    # viewer out and rely on the script this extension adds to the page.
+    os.environ[VIEWER_MODE_VARIABLE] = "shared"
     app.connect("html-page-context", add_viewer_to_scene_pages)
     app.connect("build-finished", copy_viewer)
     return {"version": "1.0", "parallel_read_safe": True, "parallel_write_safe": True}

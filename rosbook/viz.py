@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import atexit
 import base64
+import html
 import io
 import json
 import math
@@ -43,6 +44,8 @@ from rosbook.urdf import Robot, mesh_path
 VIEWER_JS = Path(meshcat.__file__).parent / "viewer" / "dist" / "main.min.js"
 #: Where the book serves the viewer from, relative to its ``_static`` folder.
 VIEWER_STATIC_NAME = "meshcat/main.min.js"
+#: Set to "shared" where pages load the viewer script themselves (the book build).
+VIEWER_MODE_VARIABLE = "ROSBOOK_MESHCAT_VIEWER"
 #: The class of the HTML element a scene is drawn in (the Sphinx extension looks for it).
 SCENE_CLASS = "rosbook-meshcat-scene"
 
@@ -170,9 +173,11 @@ def visual_rgba(robot: Robot, visual: Any) -> tuple[float, ...]:
 class Scene:
     """Recorded MeshCat commands, shown as an interactive 3D view by a notebook.
 
+    In the book (``ROSBOOK_MESHCAT_VIEWER=shared``, set by ``rosbook.sphinx_meshcat``),
     ``_repr_html_`` gives a ``<div>`` and a script that replays the commands into a
-    ``MeshCat.Viewer``. The viewer's JavaScript is *not* inlined: the book loads it once
-    per page from ``_static`` (the Sphinx extension adds it to every page with a scene).
+    ``MeshCat.Viewer`` whose JavaScript the page loads once from ``_static``. Anywhere
+    else (JupyterLab) there is no such file, so the output is a self-contained
+    ``<iframe>`` that inlines the viewer (about 0.85 MB per output).
     """
 
     def __init__(self, commands: Iterable[dict[str, Any]], height: int = 360) -> None:
@@ -206,6 +211,25 @@ class Scene:
         return json.dumps([base64.b64encode(p).decode() for p in self.packed])
 
     def _repr_html_(self) -> str:
+        if os.environ.get(VIEWER_MODE_VARIABLE) == "shared":
+            return self.shared_html()
+        return self.inline_html()
+
+    def inline_html(self) -> str:
+        """An ``<iframe>`` holding the viewer and the scene: works with no other file."""
+        page = (
+            "<!DOCTYPE html><html><head><meta charset='utf-8'>"
+            f"<script>{VIEWER_JS.read_text()}</script>"
+            "<style>body { margin: 0; }</style></head><body>"
+            f"{self.shared_html()}</body></html>"
+        )
+        return (
+            f'<iframe srcdoc="{html.escape(page, quote=True)}" '
+            f'style="width: 100%; height: {self.height + 4}px; border: none"></iframe>'
+        )
+
+    def shared_html(self) -> str:
+        """The scene's pane and commands; the page must load the viewer script itself."""
         element = f"meshcat-{uuid.uuid4().hex[:12]}"
         return (
             # MeshCat puts its control panel in the pane's parent, at its top right:
@@ -224,7 +248,7 @@ class Scene:
         return (
             "<!DOCTYPE html><html><head><meta charset='utf-8'><title>MeshCat scene</title>"
             f"<script src='{viewer_src}'></script></head><body>"
-            f"{self._repr_html_()}</body></html>"
+            f"{self.shared_html()}</body></html>"
         )
 
     def __repr__(self) -> str:

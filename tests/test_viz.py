@@ -123,7 +123,7 @@ def test_exported_scene_contains_every_link(name: str) -> None:
     scene = viz.show(robot)
     for link in robot.links:
         assert f"/meshcat/{robot.name}/{link}" in scene.paths, link
-    page = scene._repr_html_()
+    page = scene.shared_html()
     payload = re.search(r'<script type="application/json" id="[^"]+">(.*?)</script>', page, re.S)
     assert payload is not None
     replayed = [umsgpack.unpackb(base64.b64decode(b)) for b in json.loads(payload.group(1))]
@@ -218,3 +218,17 @@ def test_a_scene_exports_as_a_standalone_page_loading_a_given_viewer(bot: urdf.R
     assert page.startswith("<!DOCTYPE html>")
     assert page.count("<script src='meshcat/main.min.js'></script>") == 1
     assert viz.SCENE_CLASS in page and len(page) < 100_000
+
+
+def test_outside_the_book_a_scene_carries_its_own_viewer(
+    bot: urdf.Robot, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.delenv(viz.VIEWER_MODE_VARIABLE, raising=False)
+    page = viz.show(bot)._repr_html_()
+    assert page.startswith("<iframe srcdoc=") and len(page) > VIEWER_SIZE
+    monkeypatch.setenv(viz.VIEWER_MODE_VARIABLE, "shared")
+    page = viz.show(bot)._repr_html_()
+    assert page.startswith(f'<div class="{viz.SCENE_CLASS}"') and len(page) < 100_000
+
+
+VIEWER_SIZE = viz.VIEWER_JS.stat().st_size
