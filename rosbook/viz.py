@@ -146,12 +146,12 @@ def rgb_hex(rgba: Sequence[float]) -> int:
     return (r << 16) | (g_ << 8) | b
 
 
-def planar_pose(x: float, y: float, yaw: float) -> np.ndarray:
-    """The 4x4 pose of a robot base at (x, y) on the floor, heading ``yaw`` (rad)."""
+def planar_pose(x: float, y: float, yaw: float, z: float = 0.0) -> np.ndarray:
+    """The 4x4 pose of a robot base at (x, y, z), heading ``yaw`` (rad) about z."""
     pose = np.eye(4)
     c, s = math.cos(yaw), math.sin(yaw)
     pose[:2, :2] = [[c, -s], [s, c]]
-    pose[:2, 3] = x, y
+    pose[:3, 3] = x, y, z
     return pose
 
 
@@ -288,6 +288,10 @@ class RobotView:
     link node carries its pose from forward kinematics, and ``/meshcat/<prefix>`` the
     base pose on the floor, so a 2D simulator can drive the twin with
     :meth:`set_base_pose` and :meth:`set_joints`.
+
+    ``standing=True`` lifts the root link so that the robot's lowest point (at zero
+    joint positions) touches the floor, z = 0, where MeshCat draws its grid; with
+    ``False`` the root link's origin is on the floor.
     """
 
     def __init__(
@@ -298,16 +302,19 @@ class RobotView:
         frames: bool = False,
         frame_scale: float = 0.1,
         camera: Sequence[float] | None = None,
+        standing: bool = True,
     ) -> None:
         self.robot = robot
         self.vis = vis if vis is not None else recording_visualizer()
         self.prefix = prefix or robot.name
         self.positions: dict[str, float] = {}
+        self.height = -lowest_point(robot) if standing else 0.0
         self.base = np.eye(4)
         self.frame_scale = frame_scale
         self._draw(camera)
         self.show_frames(frames)
         self.set_joints({})
+        self.set_base_pose(0.0, 0.0, 0.0)
 
     @property
     def root(self) -> meshcat.Visualizer:
@@ -366,8 +373,12 @@ class RobotView:
             self.root[link].set_transform(pose)
 
     def set_base_pose(self, x: float, y: float, yaw: float) -> None:
-        """Place the robot's root link at (x, y) on the floor, heading ``yaw`` (rad)."""
-        self.base = planar_pose(x, y, yaw)
+        """Place the robot at (x, y) on the floor, heading ``yaw`` (rad).
+
+        (x, y, yaw) is the root link's pose in the world, as a 2D simulator or odometry
+        gives it (the ``odom`` -> ``base_link`` transform); the height is the view's.
+        """
+        self.base = planar_pose(x, y, yaw, self.height)
         self.root.set_transform(self.base)
 
     def animate(
@@ -386,7 +397,7 @@ class RobotView:
         for k, item in enumerate(frames):
             if isinstance(item, tuple):
                 joints, base = item
-                base_pose: np.ndarray | None = planar_pose(*base)
+                base_pose: np.ndarray | None = planar_pose(*base, self.height)
             else:
                 joints, base_pose = item, None
             positions.update(joints)
@@ -438,6 +449,19 @@ def _visual_mesh(robot: Robot, visual: Any) -> trimesh.Trimesh | None:
     if visual.origin is not None:
         mesh.apply_transform(np.asarray(visual.origin, dtype=float))
     return mesh
+
+
+def lowest_point(robot: Robot, positions: Mapping[str, float] | None = None) -> float:
+    """The lowest z of all the robot's visuals, in the root frame (0 if none)."""
+    poses = robot.poses(positions or {})
+    lowest = math.inf
+    for link in robot.model.robot.links:
+        for visual in link.visuals:
+            mesh = _visual_mesh(robot, visual)
+            if mesh is not None:
+                mesh.apply_transform(poses[link.name])
+                lowest = min(lowest, float(mesh.vertices[:, 2].min()))
+    return 0.0 if lowest == math.inf else lowest
 
 
 def sketch(
