@@ -22,6 +22,7 @@ WHEEL_RADIUS = 0.04
 WHEEL_LENGTH = 0.05
 WHEEL_CENTRES = {"left_wheel": (0.2, 0.2, -0.05), "right_wheel": (0.2, -0.2, -0.05)}
 FLOOR_Z = -0.09
+LASER_FRAME = (0.2, 0.0, 0.06)
 
 
 def _fmt(values: Sequence[float]) -> str:
@@ -62,7 +63,7 @@ def show_robot(robot: Robot, title: str = "your robot") -> None:
 
 def assert_diff_drive_tree(robot: Robot) -> None:
     """base_link is the root; the wheels hang on continuous joints, the caster on a fixed one."""
-    for link in ("base_link", "left_wheel", "right_wheel", "caster"):
+    for link in ("base_link", "left_wheel", "right_wheel", "caster", "laser_frame"):
         assert link in robot.links, (
             f"there is no link named {link!r}; your links are {', '.join(robot.links)}"
         )
@@ -74,6 +75,7 @@ def assert_diff_drive_tree(robot: Robot) -> None:
         ("left_wheel", "continuous"),
         ("right_wheel", "continuous"),
         ("caster", "fixed"),
+        ("laser_frame", "fixed"),
     ):
         joint = robot.parent_joint(link)
         assert joint is not None, f"no joint attaches {link!r}"
@@ -88,8 +90,8 @@ def assert_diff_drive_tree(robot: Robot) -> None:
             )
         else:
             assert joint.type == "fixed", (
-                f"joint {joint.name!r} (base_link -> caster) is {joint.type!r}; the lab's caster "
-                'is attached with type="fixed" (nothing drives it)'
+                f"joint {joint.name!r} (base_link -> {link}) is {joint.type!r}; the lab's "
+                f'{link} is attached with type="fixed" (nothing drives it)'
             )
 
 
@@ -178,6 +180,10 @@ def assert_diff_drive_dimensions(robot: Robot) -> None:
                 else ""
             )
         )
+    laser = robot.position("laser_frame")
+    assert np.allclose(laser, LASER_FRAME, atol=1e-3), (
+        f"laser_frame is at {_fmt(laser)} in base_link, expected {_fmt(LASER_FRAME)}"
+    )
     lowest = _lowest_point(robot, "caster")
     assert lowest is not None, "the caster has no <sphere> visual"
     assert math.isclose(lowest, FLOOR_Z, abs_tol=1e-3), (

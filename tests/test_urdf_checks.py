@@ -52,6 +52,14 @@ MISTAKES = {
         "has parent 'right_wheel' and child 'base_link': parent and child are swapped",
     ),
     "missing caster": (('<child link="caster"/>', '<child link="castor"/>'), "not a valid URDF"),
+    "laser misplaced": (
+        ('<origin xyz="0.2 0 0.06"/>', '<origin xyz="0.2 0 0.6"/>'),
+        "laser_frame is at",
+    ),
+    "laser moving": (
+        ('name="base_link_laser" type="fixed"', 'name="base_link_laser" type="continuous"'),
+        "(base_link -> laser_frame) is 'continuous'; the lab's laser_frame is attached",
+    ),
     "wheels exchanged": (
         ('<origin xyz="0.2 0.2 -0.05"', '<origin xyz="0.2 -0.2 -0.05"'),
         "(left is +y, right is -y)",
