@@ -170,6 +170,40 @@ def visual_rgba(robot: Robot, visual: Any) -> tuple[float, ...]:
     return DEFAULT_RGBA
 
 
+def _key(command: dict[str, Any]) -> tuple[str, ...]:
+    """What a command sets: a later command with the same key replaces it."""
+    kind = command["type"]
+    if kind == "set_property":
+        return (kind, command["path"], command["property"])
+    if kind == "set_animation":
+        return (kind,)
+    return (kind, command.get("path", ""))
+
+
+def compact(commands: Iterable[dict[str, Any]]) -> list[dict[str, Any]]:
+    """The commands that still matter for the final scene, in their order.
+
+    A set_object, set_transform or set_property is dropped when a later one sets the
+    same thing, and everything below a path is dropped when that path is deleted later.
+    The viewer ends in the same state; a recorded scene gets no bigger when the robot
+    is moved many times before it is shown.
+    """
+    kept: dict[tuple[str, ...], dict[str, Any]] = {}
+    for command in commands:
+        if command["type"] == "delete":
+            path = command["path"]
+            for key in [k for k, c in kept.items() if _below(c.get("path", ""), path)]:
+                del kept[key]
+        key = _key(command)
+        kept.pop(key, None)  # re-inserted last: keeps the order of the final commands
+        kept[key] = command
+    return list(kept.values())
+
+
+def _below(path: str, root: str) -> bool:
+    return path == root or path.startswith(root.rstrip("/") + "/")
+
+
 class Scene:
     """Recorded MeshCat commands, shown as an interactive 3D view by a notebook.
 
@@ -181,7 +215,7 @@ class Scene:
     """
 
     def __init__(self, commands: Iterable[dict[str, Any]], height: int = 360) -> None:
-        self.commands = list(commands)
+        self.commands = compact(commands)
         self.height = height
 
     @property

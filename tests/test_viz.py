@@ -240,3 +240,30 @@ def test_outside_the_book_a_scene_carries_its_own_viewer(
 
 
 VIEWER_SIZE = viz.VIEWER_JS.stat().st_size
+
+
+def test_moving_the_robot_many_times_does_not_grow_the_scene(bot: urdf.Robot) -> None:
+    once = viz.RobotView(bot)
+    once.set_joints({"base_link_left_wheel": 0.1})
+    many = viz.RobotView(bot)
+    for k in range(50):
+        many.set_joints({"base_link_left_wheel": 0.1 * (k + 1)})
+        many.set_base_pose(0.01 * k, 0.0, 0.0)
+    assert len(many.scene().commands) == len(once.scene().commands)
+    final = matrix(last(many.scene().commands, "set_transform", "/meshcat/bot/left_wheel"))
+    np.testing.assert_allclose(final, bot.pose("left_wheel", {"base_link_left_wheel": 5.0}))
+
+
+def test_compaction_keeps_each_object_before_its_transform(bot: urdf.Robot) -> None:
+    view = viz.RobotView(bot)
+    view.set_joints({"base_link_left_wheel": 1.0})
+    view.show_frames(True)
+    commands = view.scene().commands
+    order = {(c["type"], c.get("path")): i for i, c in enumerate(commands)}
+    for link in bot.links:
+        frame = f"/meshcat/bot/{link}/frame"
+        assert order[("set_object", frame)] < order[("set_property", frame)]
+        visual = f"/meshcat/bot/{link}/visual_0"
+        assert order[("set_object", visual)] < order[("set_transform", visual)]
+    redrawn = viz.RobotView(bot, vis=view.vis)  # deletes the robot, then draws it anew
+    assert len(redrawn.scene().commands) == len(viz.RobotView(bot).scene().commands)
