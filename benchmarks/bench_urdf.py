@@ -1,0 +1,42 @@
+"""Page weight of the built URDF chapter, whose page holds six interactive MeshCat scenes.
+
+Target: under 2 MB for what the page adds beyond the book's theme (its HTML plus the
+MeshCat viewer script, which is shared by every page with a scene instead of being
+inlined in each). The theme's own assets (about 1.8 MB, mostly its icon font script)
+are loaded by every page of the book and are reported separately.
+"""
+
+from __future__ import annotations
+
+import tempfile
+from pathlib import Path
+
+from benchmarks import Figure
+from rosbook import bookpages
+from rosbook.viz import VIEWER_JS
+
+CHAPTER = "book/urdf_digital_twin"
+MB = 1e6
+
+
+def run() -> list[Figure]:
+    with tempfile.TemporaryDirectory(prefix="bench_urdf_") as tmp:
+        html = bookpages.build_chapters([CHAPTER], Path(tmp))
+        page = html / f"{CHAPTER}.html"
+        weight = bookpages.page_weight(page)
+        theme = bookpages.page_weight(html / "book" / "intro.html")
+        scenes = bookpages.scene_commands(page.read_text())
+    own = weight.html + sum(v for k, v in weight.assets.items() if k not in theme.assets)
+    return [
+        Figure("urdf page: HTML + viewer JS (target < 2 MB)", own / MB, "MB"),
+        Figure("urdf page: HTML alone (6 scenes)", weight.html / MB, "MB"),
+        Figure("urdf page: everything incl. theme assets", weight.total / MB, "MB"),
+        Figure("book theme assets on every page", (theme.total - theme.html) / MB, "MB"),
+        Figure("shared MeshCat viewer JS (once per book)", VIEWER_JS.stat().st_size / MB, "MB"),
+        Figure("scenes on the page", len(scenes), "scenes"),
+        Figure(
+            "same scenes with the viewer inlined in each",
+            (weight.html + len(scenes) * VIEWER_JS.stat().st_size) / MB,
+            "MB",
+        ),
+    ]

@@ -1,0 +1,80 @@
+"""rosbook.urdf_checks: each mistake in a lab robot gets its own explanation."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from rosbook import urdf_checks
+
+GOOD = (Path(__file__).parent / "fixtures" / "urdf" / "diff_drive.urdf").read_text()
+
+
+def check_all(xml: str) -> None:
+    robot = urdf_checks.load_student_urdf(xml)
+    urdf_checks.assert_diff_drive_tree(robot)
+    for wheel in ("left_wheel", "right_wheel"):
+        urdf_checks.assert_rolls_forward(robot, wheel)
+    urdf_checks.assert_diff_drive_dimensions(robot)
+
+
+def test_the_lecture_robot_passes_every_check() -> None:
+    check_all(GOOD)
+
+
+MISTAKES = {
+    "axis reversed": (
+        ('<axis xyz="0 0 -1"/>', '<axis xyz="0 0 1"/>'),
+        "rolls the robot backwards (-x)",
+    ),
+    "default axis": (
+        ('<axis xyz="0 0 -1"/>', ""),
+        "'left_wheel' turns about (1, 0, 0) (base_link frame) but its cylinder's axle points",
+    ),
+    "wheel not rolled": (
+        (' rpy="1.570796 0 0"', ""),
+        "'left_wheel' turns about (0, 0, -1) in base_link, but a wheel that rolls along x turns "
+        "about base_link's y axis: it lies flat and spins like a turntable",
+    ),
+    "fixed wheel": (
+        (
+            'name="base_link_left_wheel" type="continuous"',
+            'name="base_link_left_wheel" type="fixed"',
+        ),
+        "(base_link -> left_wheel) is 'fixed'; a wheel turns without limits",
+    ),
+    "swapped": (
+        (
+            '<parent link="base_link"/>\n    <child link="right_wheel"/>',
+            '<parent link="right_wheel"/>\n    <child link="base_link"/>',
+        ),
+        "has parent 'right_wheel' and child 'base_link': parent and child are swapped",
+    ),
+    "missing caster": (('<child link="caster"/>', '<child link="castor"/>'), "not a valid URDF"),
+    "laser misplaced": (
+        ('<origin xyz="0.2 0 0.06"/>', '<origin xyz="0.2 0 0.6"/>'),
+        "laser_frame is at",
+    ),
+    "laser moving": (
+        ('name="base_link_laser" type="fixed"', 'name="base_link_laser" type="continuous"'),
+        "(base_link -> laser_frame) is 'continuous'; the lab's laser_frame is attached",
+    ),
+    "wheels exchanged": (
+        ('<origin xyz="0.2 0.2 -0.05"', '<origin xyz="0.2 -0.2 -0.05"'),
+        "(left is +y, right is -y)",
+    ),
+    "small wheels": (('radius="0.04" length="0.05"', 'radius="0.03" length="0.05"'), "radius 0.03"),
+    "caster floating": (('<sphere radius="0.04"/>', '<sphere radius="0.02"/>'), "would not stand"),
+    "not a string": (None, "must be a string holding your URDF"),
+}
+
+
+@pytest.mark.parametrize("mistake", MISTAKES)
+def test_each_mistake_is_explained(mistake: str) -> None:
+    change, message = MISTAKES[mistake]
+    xml = None if change is None else GOOD.replace(*change)
+    assert xml != GOOD
+    with pytest.raises(AssertionError) as error:
+        check_all(xml)  # type: ignore[arg-type]
+    assert message in str(error.value), str(error.value)
