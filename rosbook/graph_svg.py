@@ -25,6 +25,7 @@ ROW_H = 56
 COL_GAP = 70
 MARGIN = 16
 BOX_H = 30
+ROUTE_GAP = 12  # clearance of an edge that passes other columns
 
 
 @dataclass(frozen=True)
@@ -150,10 +151,22 @@ def to_svg(g: GraphEdges, title: str = "ROS graph") -> str:
     for a, b in g.edges:
         ax, ay, aw = center[a]
         bx, by, bw = center[b]
-        if layer[b] > layer[a]:
+        if layer[b] == layer[a] + 1:
             x1, x2 = ax + aw / 2, bx - bw / 2
             mid = (x1 + x2) / 2
             d = f"M {x1:.1f} {ay:.1f} C {mid:.1f} {ay:.1f}, {mid:.1f} {by:.1f}, {x2:.1f} {by:.1f}"
+        elif layer[b] > layer[a]:  # skips columns: pass above what stands in between
+            between = range(layer[a] + 1, layer[b])
+            top = min(center[v][1] for c in between for v in columns[c]) - BOX_H / 2
+            y = max(top - ROUTE_GAP, ROUTE_GAP / 2)
+            x1, x2 = ax + aw / 2, bx - bw / 2
+            x_in, x_out = x_left[between[0]] - ROUTE_GAP, x_left[between[-1]] + widths[between[-1]]
+            x_out += ROUTE_GAP
+            m1, m2 = (x1 + x_in) / 2, (x_out + x2) / 2
+            d = (
+                f"M {x1:.1f} {ay:.1f} C {m1:.1f} {ay:.1f}, {m1:.1f} {y:.1f}, {x_in:.1f} {y:.1f} "
+                f"L {x_out:.1f} {y:.1f} C {m2:.1f} {y:.1f}, {m2:.1f} {by:.1f}, {x2:.1f} {by:.1f}"
+            )
         else:  # a back edge (a cycle): loop below the boxes
             x1, x2 = ax, bx
             y1, y2 = ay + BOX_H / 2, by + BOX_H / 2

@@ -202,3 +202,22 @@ def test_graph_layout_is_deterministic_and_survives_cycles() -> None:
         for name, cx in re.findall(r'data-name="([^"]+)"><\w+ (?:cx|x)="([\d.]+)"', svg)
     }
     assert x["/mapper"] < x["/map"] < x["/planner"] < x["/path"], x
+
+
+def test_an_edge_that_skips_columns_is_routed_above_them() -> None:
+    relay = GraphEdges(
+        nodes=["/listener", "/shouter", "/talker"],
+        topics=["/chatter", "/shouted"],
+        edges=[
+            (("node", "/talker"), ("topic", "/chatter")),
+            (("topic", "/chatter"), ("node", "/shouter")),
+            (("node", "/shouter"), ("topic", "/shouted")),
+            (("topic", "/shouted"), ("node", "/listener")),
+            (("topic", "/chatter"), ("node", "/listener")),
+        ],
+    )
+    svg = to_svg(relay)
+    (skip,) = re.findall(r'data-from="/chatter" data-to="/listener" d="([^"]+)"', svg)
+    shouted_top = float(re.search(r'data-name="/shouted"><rect x="[\d.]+" y="([\d.]+)"', svg)[1])
+    (route_y,) = {float(y) for y in re.findall(r"L [\d.]+ ([\d.]+)", skip)}
+    assert route_y < shouted_top, (route_y, shouted_top)
