@@ -1,0 +1,111 @@
+"""Part I of the book: its build time, and the accuracy of the toolkit's ``topic hz``.
+
+- "Part I build": seconds to build only Part I's chapters (a TOC of that part alone),
+  every cell executed with a fresh cache into a temporary directory, in a ROS domain of
+  its own.
+- "topic hz accuracy on 10 Hz": percent error of ``rosbook.graph.hz`` against a real
+  publisher process whose wall-clock timer fires at 10 Hz (target: within 2 %).
+"""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+import tempfile
+import textwrap
+import time
+from pathlib import Path
+
+import yaml
+
+from benchmarks import Figure
+
+ROOT = Path(__file__).resolve().parent.parent
+HZ_SECONDS = 10.0
+
+PUBLISHER = textwrap.dedent(
+    """
+    import rclpy
+    from rclpy.executors import ExternalShutdownException
+    from rclpy.node import Node
+    from std_msgs.msg import String
+
+
+    class Beacon(Node):
+        def __init__(self):
+            super().__init__('beacon')
+            self.publisher_ = self.create_publisher(String, 'beacon', 10)
+            self.timer = self.create_timer(0.1, self.on_timer)
+
+        def on_timer(self):
+            self.publisher_.publish(String(data='ping'))
+
+
+    rclpy.init()
+    node = Beacon()
+    try:
+        rclpy.spin(node)
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+    finally:
+        node.destroy_node()
+        rclpy.try_shutdown()
+    """
+)
+
+
+def part_one_toc() -> dict[str, object]:
+    """The book's TOC with Part I only."""
+    toc = yaml.safe_load((ROOT / "_toc.yml").read_text())
+    toc["parts"] = [p for p in toc["parts"] if str(p.get("caption", "")).startswith("Part I:")]
+    if not toc["parts"]:
+        raise RuntimeError("_toc.yml has no part whose caption starts with 'Part I:'")
+    return toc
+
+
+def build_seconds() -> float:
+    """Wall time of a clean build of Part I; raises if the build fails."""
+    with tempfile.TemporaryDirectory(prefix="bench_part1_") as tmp:
+        toc = Path(tmp) / "toc.yml"
+        toc.write_text(yaml.safe_dump(part_one_toc(), sort_keys=False))
+        argv = [
+            sys.executable, "-m", "rosbook.isolation", "--",
+            str(Path(sys.executable).parent / "jupyter-book"),
+            "build", "--all", "-W", "-n", "--keep-going",
+            "--toc", str(toc), "--path-output", str(Path(tmp) / "out"), ".",
+        ]  # fmt: skip
+        start = time.monotonic()
+        run = subprocess.run(argv, cwd=ROOT, capture_output=True, text=True)
+        seconds = time.monotonic() - start
+        if run.returncode != 0:
+            tail = "\n".join((run.stdout + run.stderr).splitlines()[-30:])
+            raise RuntimeError(f"Part I build failed (exit {run.returncode}):\n{tail}")
+    return seconds
+
+
+def hz_error_percent() -> tuple[float, float]:
+    """(percent error, measured rate) of ``graph.hz`` on a 10 Hz publisher process."""
+    from rosbook import graph
+    from rosbook.cli import cli_node
+    from rosbook.isolation import isolated_environ
+
+    with isolated_environ(), tempfile.TemporaryDirectory(prefix="bench_hz_") as tmp:
+        script = Path(tmp) / "beacon.py"
+        script.write_text(PUBLISHER)
+        proc = subprocess.Popen([sys.executable, str(script)])
+        try:
+            with cli_node() as node:
+                rate = graph.hz("/beacon", node, duration=HZ_SECONDS, wait=10.0).rate
+        finally:
+            proc.kill()
+            proc.wait()
+    return abs(rate - 10.0) / 10.0 * 100.0, rate
+
+
+def run() -> list[Figure]:
+    error, rate = hz_error_percent()
+    return [
+        Figure("Part I build", build_seconds(), "s"),
+        Figure("topic hz accuracy on 10 Hz", error, "%"),
+        Figure("topic hz measured on 10 Hz", rate, "Hz"),
+    ]

@@ -1,0 +1,33 @@
+"""``ros2 interface show TYPE`` and ``ros2 interface package PACKAGE``."""
+
+from __future__ import annotations
+
+import argparse
+
+from rosbook import interfaces
+from rosbook.cli.reporting import reports_errors
+
+
+def add_parser(verbs: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
+    parser = verbs.add_parser("interface", help="Message, service and action definitions")
+    commands = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+
+    p = commands.add_parser("show", help="Print an interface's definition, nested types expanded")
+    p.add_argument("type", help="e.g. geometry_msgs/msg/Pose")
+    p.set_defaults(func=show)
+
+    p = commands.add_parser("package", help="Print the interfaces of a package")
+    p.add_argument("package_name")
+    p.set_defaults(func=package)
+
+
+@reports_errors
+def show(args: argparse.Namespace) -> int:
+    print(interfaces.show(args.type))
+    return 0
+
+
+@reports_errors
+def package(args: argparse.Namespace) -> int:
+    print(*interfaces.interfaces(args.package_name), sep="\n")
+    return 0

@@ -1,0 +1,196 @@
+"""Message, service and action definitions: what ``ros2 interface show`` prints.
+
+The ROS 2 wheels install each interface package's definitions next to the venv, in
+``<prefix>/share/<package>/msg/*.msg`` (and ``srv``, ``action``), listed by the ament
+resource index in ``<prefix>/share/ament_index/resource_index/rosidl_interfaces/``.
+This module reads those files, imports the generated Python classes and turns a
+message into the YAML text ``ros2 topic echo`` prints.
+"""
+
+from __future__ import annotations
+
+import importlib
+import os
+import re
+import sys
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+#: IDL primitive types a ``.msg`` field may have (everything else is a message type).
+PRIMITIVES = frozenset(
+    "bool byte char float32 float64 int8 uint8 int16 uint16 int32 uint32 int64 uint64 "
+    "string wstring".split()
+)
+
+_KINDS = ("msg", "srv", "action")
+
+
+class InterfaceError(LookupError):
+    """An interface name that is malformed or not installed (a one-line message)."""
+
+
+def split_type(type_name: str) -> tuple[str, str, str]:
+    """``('geometry_msgs', 'msg', 'Pose')`` for ``geometry_msgs/msg/Pose``."""
+    parts = type_name.strip("/").split("/")
+    if len(parts) != 3 or parts[1] not in _KINDS or not all(parts):
+        raise InterfaceError(
+            f"'{type_name}' is not an interface name: expected PACKAGE/msg|srv|action/NAME, "
+            "e.g. std_msgs/msg/String"
+        )
+    return parts[0], parts[1], parts[2]
+
+
+def prefixes() -> list[Path]:
+    """Install prefixes that may hold interface packages (AMENT_PREFIX_PATH, then the venv)."""
+    found = [Path(p) for p in os.environ.get("AMENT_PREFIX_PATH", "").split(os.pathsep) if p]
+    found.append(Path(sys.prefix))
+    return list(dict.fromkeys(found))
+
+
+def _index(package: str) -> tuple[Path, list[str]] | None:
+    """The prefix of ``package`` and its resource-index entries (``msg/Pose.msg`` ...)."""
+    for prefix in prefixes():
+        entry = prefix / "share/ament_index/resource_index/rosidl_interfaces" / package
+        if entry.is_file():
+            return prefix, entry.read_text().split()
+    return None
+
+
+def packages() -> list[str]:
+    """Every installed interface package, sorted."""
+    names: set[str] = set()
+    for prefix in prefixes():
+        index = prefix / "share/ament_index/resource_index/rosidl_interfaces"
+        if index.is_dir():
+            names.update(p.name for p in index.iterdir())
+    return sorted(names)
+
+
+def interfaces(package: str) -> list[str]:
+    """The interfaces of ``package``, as ``package/msg/Name`` strings, sorted."""
+    found = _index(package)
+    if found is None:
+        raise InterfaceError(f"unknown interface package '{package}'")
+    _, entries = found
+    return sorted(
+        f"{package}/{entry.rsplit('.', 1)[0]}"
+        for entry in entries
+        if entry.rsplit(".", 1)[-1] in _KINDS
+    )
+
+
+def definition_path(type_name: str) -> Path:
+    """The installed ``.msg``/``.srv``/``.action`` file that defines ``type_name``."""
+    package, kind, name = split_type(type_name)
+    found = _index(package)
+    if found is None:
+        raise InterfaceError(f"unknown interface package '{package}' (in '{type_name}')")
+    prefix, entries = found
+    if f"{kind}/{name}.{kind}" not in entries:
+        raise InterfaceError(
+            f"unknown interface '{type_name}': package {package} has no {kind} {name}"
+        )
+    return prefix / "share" / package / kind / f"{name}.{kind}"
+
+
+def definition(type_name: str) -> str:
+    """The text of the definition file of ``type_name``, as its authors wrote it."""
+    return definition_path(type_name).read_text()
+
+
+def show(type_name: str) -> str:
+    """What ``ros2 interface show TYPE`` prints: the definition, nested types expanded.
+
+    Each field whose type is itself a message is followed by that message's fields,
+    indented by a tab, without their comments (the real command's default).
+    """
+    package, _, _ = split_type(type_name)
+    lines = list(_expand(definition(type_name), package, depth=0))
+    return "\n".join(lines).rstrip("\n")
+
+
+_FIELD = re.compile(r"^\s*([A-Za-z][\w/]*)(?:<=\d+)?(\[[^\]]*\])?\s+([A-Za-z]\w*)(\s|=|$)")
+
+
+def _expand(text: str, package: str, depth: int) -> Iterator[str]:
+    indent = "\t" * depth
+    for raw in text.splitlines():
+        line = raw.rstrip()
+        if depth:
+            line = _strip_comment(line)
+            if not line.strip():
+                continue
+        yield indent + line
+        match = _FIELD.match(line)
+        if not match or line.lstrip().startswith("#"):
+            continue
+        field_type = match.group(1)
+        if field_type in PRIMITIVES:  # constants are always primitive
+            continue
+        nested = _nested_type(field_type, package)
+        if nested is None:
+            continue
+        nested_package = nested.split("/", 1)[0]
+        yield from _expand(definition(nested), nested_package, depth + 1)
+
+
+def _strip_comment(line: str) -> str:
+    if line.lstrip().startswith("#"):
+        return ""
+    if "#" not in line or "'" in line or '"' in line:
+        return line
+    return line.split("#", 1)[0].rstrip()
+
+
+def _nested_type(field_type: str, package: str) -> str | None:
+    """``geometry_msgs/msg/Point`` for the field type ``Point`` in geometry_msgs."""
+    if "/" in field_type:
+        pkg, name = field_type.split("/", 1)
+        name = name.removeprefix("msg/")
+    elif field_type == "Header":
+        pkg, name = "std_msgs", "Header"
+    else:
+        pkg, name = package, field_type
+    full = f"{pkg}/msg/{name}"
+    try:
+        definition_path(full)
+    except InterfaceError:
+        return None
+    return full
+
+
+def message_class(type_name: str) -> type:
+    """The generated Python class of ``type_name`` (``std_msgs.msg.String``)."""
+    package, kind, name = split_type(type_name)
+    try:
+        module = importlib.import_module(f"{package}.{kind}")
+        return getattr(module, name)  # type: ignore[no-any-return]
+    except (ImportError, AttributeError):
+        raise InterfaceError(f"unknown interface '{type_name}': no Python class for it") from None
+
+
+def fields(type_name: str) -> dict[str, str]:
+    """Field names and their types, from the generated class (rosidl runtime)."""
+    return dict(message_class(type_name).get_fields_and_field_types())
+
+
+def to_plain(msg: Any) -> Any:
+    """``msg`` as nested dicts, lists and scalars, in field order."""
+    if hasattr(msg, "get_fields_and_field_types"):
+        return {name: to_plain(getattr(msg, name)) for name in msg.get_fields_and_field_types()}
+    if isinstance(msg, (list, tuple)) or type(msg).__name__ in ("ndarray", "array"):
+        return [to_plain(item) for item in msg]
+    if hasattr(msg, "item"):  # numpy scalar
+        return msg.item()
+    return msg
+
+
+def to_yaml(msg: Any) -> str:
+    """``msg`` as the YAML block ``ros2 topic echo`` prints (without the ``---``)."""
+    text: str = yaml.safe_dump(
+        to_plain(msg), default_flow_style=False, sort_keys=False, allow_unicode=True, width=1000
+    )
+    return text.rstrip("\n")
