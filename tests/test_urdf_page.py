@@ -5,7 +5,6 @@ from __future__ import annotations
 import re
 import shutil
 import subprocess
-from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
@@ -18,8 +17,9 @@ FIXTURES = Path(__file__).parent / "fixtures" / "urdf"
 
 
 @pytest.fixture(scope="module")
-def html(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Path]:
-    yield bookpages.build_chapters([CHAPTER], tmp_path_factory.mktemp("urdf_book"))
+def html(built_book: Path) -> Path:
+    """The whole book, built once per test run (tests/conftest.py)."""
+    return built_book
 
 
 @pytest.fixture(scope="module")
