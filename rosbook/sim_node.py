@@ -205,14 +205,17 @@ class Simulation:
         seconds: float,
         until: Callable[[], bool] | None = None,
         catch_up_timeout: float = 5.0,
+        wall_timeout: float | None = None,
     ) -> bool:
         """Advance ``seconds`` of simulated time (or until ``until()`` is true).
 
         Returns whether ``until`` came true (False without one). Raises whatever a
         node's callback raised, and ``TimeoutError`` when a node does not follow
-        ``/clock`` within ``catch_up_timeout`` seconds of wall time.
+        ``/clock`` within ``catch_up_timeout`` seconds of wall time or the whole run
+        takes longer than ``wall_timeout`` (a node's callbacks too slow to simulate).
         """
         started = time.perf_counter()
+        give_up = math.inf if wall_timeout is None else started + wall_timeout
         executor = SingleThreadedExecutor()
         nodes = ros.nodes
         for node in nodes:
@@ -227,6 +230,11 @@ class Simulation:
             while self.now < end - 1e-9:
                 if until is not None and until():
                     return True
+                if time.perf_counter() > give_up:
+                    raise TimeoutError(
+                        f"simulating {seconds:g} s took longer than {wall_timeout:g} s of wall "
+                        f"time (stopped at t={self.now:.2f} s): a callback is too slow"
+                    )
                 self.node.advance(self.tick)
                 self.node.publish_sensors()
                 self.node.publish_clock()
