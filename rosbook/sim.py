@@ -98,6 +98,14 @@ class Wall:
     end: tuple[float, float]
     thickness: float = 0.05
 
+    def corners(self) -> list[tuple[float, float]]:
+        """The wall as a rectangle: the segment thickened by half the thickness each side."""
+        (x0, y0), (x1, y1) = self.start, self.end
+        length = math.hypot(x1 - x0, y1 - y0) or 1.0
+        nx = -(y1 - y0) / length * self.thickness / 2
+        ny = (x1 - x0) / length * self.thickness / 2
+        return [(x0 + nx, y0 + ny), (x1 + nx, y1 + ny), (x1 - nx, y1 - ny), (x0 - nx, y0 - ny)]
+
 
 @dataclass(frozen=True)
 class Box:
@@ -273,14 +281,13 @@ class DiffDriveSim:
         self.space.add(self.body, *self.robot_shapes)
         static = self.space.static_body
         world_filter = pymunk.ShapeFilter(categories=WORLD_CATEGORY)
-        obstacles: list[pymunk.Shape] = [
-            pymunk.Segment(static, w.start, w.end, w.thickness / 2) for w in self.world.all_walls()
-        ]
+        obstacles = [pymunk.Poly(static, w.corners()) for w in self.world.all_walls()]
         obstacles += [pymunk.Poly(static, b.corners()) for b in self.world.boxes]
         for shape in obstacles:
             shape.filter = world_filter
         self.space.add(*obstacles)
         self._ray_filter = pymunk.ShapeFilter(mask=WORLD_CATEGORY)
+        self._edges = _world_edges(self.world)
         corners = g.footprint() + g.wheel_box(+1) + g.wheel_box(-1)
         self._reach = 0.01 + max(math.hypot(px + g.axle_offset, py) for px, py in corners)
         if self._overlap() is not None:
@@ -416,23 +423,53 @@ class DiffDriveSim:
 
     # -- sensing ------------------------------------------------------------------
     def scan(self) -> np.ndarray:
-        """Ranges of one lidar sweep (metres; ``inf`` where nothing is in range)."""
+        """Ranges of one lidar sweep (metres; ``inf`` where nothing is in range).
+
+        All rays at once against the world's edges (walls are their rectangles), which
+        is what makes a 360-ray scan cheap; :meth:`ray` asks Pymunk for one ray.
+        """
         spec = self.laser
         pose = self.pose
         ox = pose.x + spec.offset * math.cos(pose.yaw)
         oy = pose.y + spec.offset * math.sin(pose.yaw)
-        ranges = np.full(spec.count, math.inf)
-        query = self.space.segment_query_first
-        for i, angle in enumerate(spec.angles()):
-            a = pose.yaw + float(angle)
-            end = (ox + spec.range_max * math.cos(a), oy + spec.range_max * math.sin(a))
-            hit = query((ox, oy), end, 0.0, self._ray_filter)
-            if hit is not None:
-                ranges[i] = hit.alpha * spec.range_max
+        angles = pose.yaw + spec.angles()
+        dx, dy = np.cos(angles)[:, None], np.sin(angles)[:, None]
+        px, py = self._edges[:, 0] - ox, self._edges[:, 1] - oy
+        ex, ey = self._edges[:, 2], self._edges[:, 3]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            denom = dx * ey - dy * ex
+            t = (px * ey - py * ex) / denom
+            u = (px * dy - py * dx) / denom
+            hit = (np.abs(denom) > 1e-12) & (t >= 0.0) & (u >= 0.0) & (u <= 1.0)
+        ranges = np.where(hit, t, math.inf).min(axis=1, initial=math.inf)
+        ranges[ranges > spec.range_max] = math.inf
         if self.scan_noise > 0.0:
             ranges = ranges + self.rng.normal(0.0, self.scan_noise, spec.count)
         ranges[ranges < spec.range_min] = math.inf
         return ranges
+
+    def ray(self, angle: float) -> float:
+        """Distance to the first wall or obstacle along one ray (Pymunk's segment query)."""
+        spec = self.laser
+        pose = self.pose
+        ox = pose.x + spec.offset * math.cos(pose.yaw)
+        oy = pose.y + spec.offset * math.sin(pose.yaw)
+        a = pose.yaw + angle
+        end = (ox + spec.range_max * math.cos(a), oy + spec.range_max * math.sin(a))
+        hit = self.space.segment_query_first((ox, oy), end, 0.0, self._ray_filter)
+        return math.inf if hit is None else hit.alpha * spec.range_max
+
+
+def _world_edges(world: World) -> np.ndarray:
+    """Rows (x, y, dx, dy): every edge of the walls' rectangles and of the boxes."""
+    polygons = [wall.corners() for wall in world.all_walls()]
+    polygons += [box.corners() for box in world.boxes]
+    rows = [
+        (ax, ay, bx - ax, by - ay)
+        for corners in polygons
+        for (ax, ay), (bx, by) in zip(corners, corners[1:] + corners[:1])
+    ]
+    return np.array(rows, dtype=float).reshape(-1, 4)
 
 
 def path_length(xs: Iterable[float], ys: Iterable[float]) -> float:

@@ -32,6 +32,7 @@ import numpy as np
 import rclpy
 from geometry_msgs.msg import Twist
 from nav_msgs.msg import Odometry
+from rclpy.event_handler import PublisherEventCallbacks, SubscriptionEventCallbacks
 from rclpy.executors import (
     ExternalShutdownException,
     SingleThreadedExecutor,
@@ -69,7 +70,13 @@ class DiffDriveSimNode(Node):
         publish_clock: bool = True,
     ) -> None:
         # The time source itself runs on wall time: it makes /clock, it does not follow it.
-        super().__init__(node_name, parameter_overrides=[Parameter("use_sim_time", value=False)])
+        # It keeps its wait set small (no parameter services, no QoS event handlers): the
+        # lockstep loop waits on every node of the session several times per tick.
+        super().__init__(
+            node_name,
+            parameter_overrides=[Parameter("use_sim_time", value=False)],
+            start_parameter_services=False,
+        )
         self.sim = sim
         self.cmd_timeout = cmd_timeout
         self.odom_period = 1.0 / odom_rate
@@ -79,12 +86,21 @@ class DiffDriveSimNode(Node):
         self._next_odom = 0.0
         self._next_scan = 0.0
         qos = QoSProfile(depth=10)
-        self.odom_pub = self.create_publisher(Odometry, "odom", qos)
-        self.scan_pub = self.create_publisher(LaserScan, "scan", qos)
+        quiet = PublisherEventCallbacks(use_default_callbacks=False)
+        self.odom_pub = self.create_publisher(Odometry, "odom", qos, event_callbacks=quiet)
+        self.scan_pub = self.create_publisher(LaserScan, "scan", qos, event_callbacks=quiet)
         self.clock_pub = (
-            self.create_publisher(Clock, "/clock", QoSProfile(depth=10)) if publish_clock else None
+            self.create_publisher(Clock, "/clock", qos, event_callbacks=quiet)
+            if publish_clock
+            else None
         )
-        self.cmd_sub = self.create_subscription(Twist, "cmd_vel", self._on_cmd_vel, qos)
+        self.cmd_sub = self.create_subscription(
+            Twist,
+            "cmd_vel",
+            self._on_cmd_vel,
+            qos,
+            event_callbacks=SubscriptionEventCallbacks(use_default_callbacks=False),
+        )
 
     def _on_cmd_vel(self, msg: Twist) -> None:
         self.commands += 1
@@ -147,6 +163,25 @@ class DiffDriveSimNode(Node):
         msg.range_max = spec.range_max
         msg.ranges = array.array("f", self.sim.scan().astype(np.float32).tobytes())
         return msg
+
+
+def _drain(executor: SingleThreadedExecutor) -> None:
+    """Run callbacks until none is ready; re-raise what a callback raised."""
+    ran = False
+    while True:
+        try:
+            handler, _, _ = executor.wait_for_ready_callbacks(timeout_sec=0.0)
+        except TimeoutException:
+            # rclpy ends a zero-timeout wait with this even after yielding work: only a
+            # wait that yielded nothing means that nothing is ready.
+            if not ran:
+                return
+            ran = False
+            continue
+        ran = True
+        handler()
+        if handler.exception() is not None:
+            raise handler.exception()  # type: ignore[misc]
 
 
 def yaw_of(msg: Odometry) -> float:
@@ -216,16 +251,19 @@ class Simulation:
         """
         started = time.perf_counter()
         give_up = math.inf if wall_timeout is None else started + wall_timeout
+        # The session's nodes and the simulator's own node are spun by two executors:
+        # the simulator services its cmd_vel after the others have had their turn,
+        # as Gazebo would in a process of its own, and each wait set stays small.
+        nodes = [n for n in ros.nodes if n is not self.node]
         executor = SingleThreadedExecutor()
-        nodes = ros.nodes
         for node in nodes:
             executor.add_node(node)
+        own = SingleThreadedExecutor()
+        own.add_node(self.node)
         try:
             if not self._started:
                 self._started = True
-                self.node.publish_sensors(force=True)
-                self.node.publish_clock()
-                self._settle(executor, nodes, catch_up_timeout)
+                self._tick(executor, own, nodes, catch_up_timeout, advance=False)
             end = self.now + seconds
             while self.now < end - 1e-9:
                 if until is not None and until():
@@ -235,53 +273,44 @@ class Simulation:
                         f"simulating {seconds:g} s took longer than {wall_timeout:g} s of wall "
                         f"time (stopped at t={self.now:.2f} s): a callback is too slow"
                     )
-                self.node.advance(self.tick)
-                self.node.publish_sensors()
-                self.node.publish_clock()
-                self._settle(executor, nodes, catch_up_timeout)
+                self._tick(executor, own, nodes, catch_up_timeout)
             return until is not None and until()
         finally:
-            for node in list(executor.get_nodes()):
-                executor.remove_node(node)
-            executor.shutdown(timeout_sec=0)
+            for ex in (executor, own):
+                for node in list(ex.get_nodes()):
+                    ex.remove_node(node)
+                ex.shutdown(timeout_sec=0)
             self.wall_time += time.perf_counter() - started
 
-    def _settle(
-        self, executor: SingleThreadedExecutor, nodes: list[Node], catch_up_timeout: float
+    def _tick(
+        self,
+        executor: SingleThreadedExecutor,
+        own: SingleThreadedExecutor,
+        nodes: list[Node],
+        catch_up_timeout: float,
+        advance: bool = True,
     ) -> None:
-        """Run ready callbacks until every node's clock reads now and nothing is left."""
+        """Physics for one tick, sensors and /clock out, everyone's callbacks, cmd_vel in."""
+        if advance:
+            self.node.advance(self.tick)
+        self.node.publish_sensors(force=not advance)
+        self.node.publish_clock()
         target = int(round(self.now * 1e9))
         deadline = time.monotonic() + catch_up_timeout
-        ran = False
         while True:
-            try:
-                handler, _, _ = executor.wait_for_ready_callbacks(timeout_sec=0.0)
-            except TimeoutException:
-                # rclpy ends a zero-timeout wait with this even after yielding work: only
-                # a wait that yielded nothing means nothing is ready.
-                if ran:
-                    ran = False
-                    continue
-                behind = [
-                    n
-                    for n in nodes
-                    if n is not self.node and n.get_clock().now().nanoseconds < target
-                ]
-                if not behind:
-                    return
-                if time.monotonic() > deadline:
-                    names = ", ".join(n.get_name() for n in behind)
-                    raise TimeoutError(
-                        f"node(s) {names} did not follow /clock to t={self.now:.3f} s: "
-                        "was the node created after the Simulation?"
-                    ) from None
-                self.node.publish_clock()
-                executor.spin_once(timeout_sec=0.002)
-                continue
-            ran = True
-            handler()
-            if handler.exception() is not None:
-                raise handler.exception()  # type: ignore[misc]
+            _drain(executor)
+            behind = [n for n in nodes if n.get_clock().now().nanoseconds < target]
+            if not behind:
+                break
+            if time.monotonic() > deadline:
+                names = ", ".join(n.get_name() for n in behind)
+                raise TimeoutError(
+                    f"node(s) {names} did not follow /clock to t={self.now:.3f} s: "
+                    "was the node created after the Simulation?"
+                )
+            self.node.publish_clock()
+            executor.spin_once(timeout_sec=0.002)
+        _drain(own)
 
     @property
     def real_time_factor(self) -> float:

@@ -14,7 +14,7 @@ from sensor_msgs.msg import LaserScan
 
 from rosbook.diff_drive import arc_step, wrap_angle
 from rosbook.session import ros
-from rosbook.sim import Box, DiffDriveSim, RobotGeometry, World
+from rosbook.sim import Box, DiffDriveSim, RobotGeometry, Wall, World
 from rosbook.sim_node import Simulation, yaw_of
 
 OPEN = World(arena=None)
@@ -124,20 +124,34 @@ def test_scan_turns_with_the_robot_and_sees_obstacles() -> None:
     assert np.isinf(DiffDriveSim(World(arena=None)).scan()).all()
 
 
+def test_scan_agrees_with_pymunk_ray_queries() -> None:
+    world = World(
+        boxes=(Box((1.0, 0.5), (0.4, 0.3), 0.3), Box((-1.2, -1.0), (0.5, 0.5))),
+        walls=(Wall((-1.0, -2.0), (-1.0, 1.0)),),
+    )
+    sim = DiffDriveSim(world)
+    sim.command(0.2, 0.3)
+    for _ in range(4):
+        sim.run(1.5)
+        ranges = sim.scan()
+        rays = [sim.ray(a) for a in sim.laser.angles()]
+        assert np.allclose(ranges, rays, atol=1e-9)
+
+
 def test_world_from_a_dict() -> None:
     world = World.from_dict(
         {
             "arena": [-1, -1, 1, 1],
             "walls": [{"start": [0, -1], "end": [0, 0.5]}],
             "boxes": [{"center": [0.5, 0.5], "size": [0.2, 0.2]}],
-            "start": [-0.5, 0, 0],
+            "start": [-0.3, 0, 0],
         }
     )
     assert world.arena == (-1, -1, 1, 1) and len(world.all_walls()) == 5
     sim = DiffDriveSim(world)
-    assert sim.pose.x == -0.5
+    assert sim.pose.x == -0.3
     ahead = int(np.argmin(np.abs(sim.laser.angles())))
-    assert sim.scan()[ahead] == pytest.approx(0.5 - 0.025, abs=1e-6)
+    assert sim.scan()[ahead] == pytest.approx(0.3 - 0.025, abs=1e-6)
 
 
 # -- on ROS topics -------------------------------------------------------------------
@@ -227,3 +241,8 @@ def test_lockstep_run_is_the_same_every_time() -> None:
         return sim.trajectory.as_array().tobytes()
 
     assert path() == path()
+
+
+def test_a_start_pose_inside_a_wall_is_refused() -> None:
+    with pytest.raises(ValueError, match="overlaps a wall or an obstacle"):
+        DiffDriveSim(World(arena=(-1.0, -1.0, 1.0, 1.0), start=(-0.6, 0.0, 0.0)))
