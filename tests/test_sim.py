@@ -246,3 +246,16 @@ def test_lockstep_run_is_the_same_every_time() -> None:
 def test_a_start_pose_inside_a_wall_is_refused() -> None:
     with pytest.raises(ValueError, match="overlaps a wall or an obstacle"):
         DiffDriveSim(World(arena=(-1.0, -1.0, 1.0, 1.0), start=(-0.6, 0.0, 0.0)))
+
+
+def test_path_plot_and_animation_are_drawn_from_the_run() -> None:
+    from rosbook.sim_plot import animate, plot_path, png
+
+    sim = DiffDriveSim(World())
+    sim.command(0.3, 0.5)
+    sim.run(2.0)
+    assert png(plot_path(sim.trajectory, sim.world, goal=(1.0, 1.0))).startswith(b"\x89PNG")
+    html = animate(sim.trajectory, sim.world, fps=5, size=2.0, dpi=30).to_jshtml()
+    assert "frames[10]" in html and "frames[11]" not in html  # t = 0, 0.2, ..., 2.0
+    sampled = sim.trajectory.sample(0.5)
+    assert sampled.t == pytest.approx([0.0, 0.5, 1.0, 1.5, 2.0])
