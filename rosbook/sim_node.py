@@ -32,6 +32,8 @@ import numpy as np
 import rclpy
 from geometry_msgs.msg import Twist
 from nav_msgs.msg import Odometry
+from rclpy.clock import Clock as RclpyClock
+from rclpy.clock import ClockType
 from rclpy.event_handler import PublisherEventCallbacks, SubscriptionEventCallbacks
 from rclpy.executors import (
     ExternalShutdownException,
@@ -334,7 +336,7 @@ def main(args: list[str] | None = None) -> None:
         node.publish_sensors()
         node.publish_clock()
 
-    node.create_timer(period, tick, clock=rclpy.clock.Clock())
+    node.create_timer(period, tick, clock=RclpyClock(clock_type=ClockType.STEADY_TIME))
     try:
         rclpy.spin(node)
     except (KeyboardInterrupt, ExternalShutdownException):

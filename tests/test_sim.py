@@ -259,3 +259,28 @@ def test_path_plot_and_animation_are_drawn_from_the_run() -> None:
     assert "frames[10]" in html and "frames[11]" not in html  # t = 0, 0.2, ..., 2.0
     sampled = sim.trajectory.sample(0.5)
     assert sampled.t == pytest.approx([0.0, 0.5, 1.0, 1.5, 2.0])
+
+
+def test_simulator_runs_as_a_process_in_real_time_and_exits_cleanly_on_ctrl_c(
+    session: object,
+) -> None:
+    from rosgraph_msgs.msg import Clock
+
+    from rosbook import checks, sim_node
+
+    clock = checks.Probe("/clock", Clock)
+    odom = checks.Probe("odom", Odometry)
+    with checks.run_script(sim_node.__file__) as run:
+        checks.wait_for_script_publisher(run, odom)
+        command = checks.Sender("cmd_vel", Twist)
+        command.wait_for_subscriber()
+        drive = Twist()
+        drive.linear.x = 0.5
+        for _ in range(10):
+            command.pub.publish(drive)
+            ros.spin_for(0.05)
+        ros.spin_for(0.2)
+        checks.assert_clean_exit(run)
+    stamps = [m.clock.sec + m.clock.nanosec * 1e-9 for m in clock.received.messages]
+    assert len(stamps) > 20 and stamps == sorted(stamps)
+    assert max(m.pose.pose.position.x for m in odom.received.messages) > 0.1
