@@ -174,6 +174,18 @@ class Pose:
 
 
 @dataclass(frozen=True)
+class TwinFrame:
+    """One frame of a recorded run: URDF base_link pose and the wheels' joint angles."""
+
+    t: float
+    x: float
+    y: float
+    yaw: float
+    left_wheel: float
+    right_wheel: float
+
+
+@dataclass(frozen=True)
 class Collision:
     """The robot touched something at time ``t`` (first contact of a touch)."""
 
@@ -349,6 +361,20 @@ class DiffDriveSim:
         pose = pose or self.pose
         off = self.geometry.axle_offset
         return Pose(pose.x - off * math.cos(pose.yaw), pose.y - off * math.sin(pose.yaw), pose.yaw)
+
+    def twin_frames(self, period: float = 0.05) -> list[TwinFrame]:
+        """The run every ``period`` s as the URDF model needs it (a digital twin's input).
+
+        The lecture URDF's ``base_link`` is the box centre, not the axle middle, so each
+        frame carries the box centre's pose and both wheel angles (radians, positive
+        rolling forwards).
+        """
+        frames = []
+        sampled = self.trajectory.sample(period)
+        for i, t in enumerate(sampled.t):
+            base = self.box_centre(Pose(sampled.x[i], sampled.y[i], sampled.yaw[i]))
+            frames.append(TwinFrame(t, base.x, base.y, base.yaw, sampled.left[i], sampled.right[i]))
+        return frames
 
     # -- commands -----------------------------------------------------------------
     def command(self, v: float, w: float) -> None:

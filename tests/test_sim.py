@@ -284,3 +284,16 @@ def test_simulator_runs_as_a_process_in_real_time_and_exits_cleanly_on_ctrl_c(
     stamps = [m.clock.sec + m.clock.nanosec * 1e-9 for m in clock.received.messages]
     assert len(stamps) > 20 and stamps == sorted(stamps)
     assert max(m.pose.pose.position.x for m in odom.received.messages) > 0.1
+
+
+def test_twin_frames_carry_the_urdf_base_pose_and_the_wheel_angles() -> None:
+    sim = DiffDriveSim(OPEN)
+    sim.command(0.0, math.pi / 2)  # a quarter turn on the spot in 1 s
+    sim.run(1.0)
+    frames = sim.twin_frames(period=0.5)
+    assert [f.t for f in frames] == pytest.approx([0.0, 0.5, 1.0])
+    last = frames[-1]
+    # the box centre is 0.2 m behind the axle: after a quarter turn left it is at (0, -0.2)
+    assert (last.x, last.y, last.yaw) == pytest.approx((0.0, -0.2, math.pi / 2), abs=1e-9)
+    spin = math.pi / 2 * 0.2 / 0.04  # w L/2 / r for 1 s
+    assert (last.left_wheel, last.right_wheel) == pytest.approx((-spin, spin))
