@@ -9,11 +9,14 @@ The simulator's reference point (``base_link``, the pose ``odom`` reports) is th
 middle of the axle, as for every differential-drive base in ROS: turning in place
 turns about it, and a constant (v, w) moves it on a circle of radius v / w.
 
-Each physics step (fixed ``dt``, never the wall clock) turns the command into wheel
-speeds through :mod:`rosbook.diff_drive`, limits them like a motor would, adds seeded
-wheel noise if asked, and moves the body along the exact arc for that step. Pymunk
-then resolves contacts with walls and obstacles, which are reported as collisions.
-Same world, same seed, same commands: the same path, to the bit.
+Each physics step (a fixed ``dt`` of 5 ms by default, never the wall clock) turns the
+command into wheel speeds through :mod:`rosbook.diff_drive`, limits them like a motor
+would, adds seeded wheel noise if asked, and moves the body along the exact arc for
+that step. The wheels do not slip on the floor, so free driving matches the closed
+form; the robot is a kinematic Pymunk body, and Pymunk's collision detection refuses a
+move into a wall or an obstacle (the wheels then spin in place) and reports the touch
+as a collision. The lidar casts its rays against the same polygons. Same world, same
+seed, same commands: the same path, to the bit.
 """
 
 from __future__ import annotations
