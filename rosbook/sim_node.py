@@ -104,6 +104,23 @@ class DiffDriveSimNode(Node):
             event_callbacks=SubscriptionEventCallbacks(use_default_callbacks=False),
         )
 
+    def take_commands(self) -> int:
+        """Take every ``cmd_vel`` waiting in the subscription's queue, in order.
+
+        The lockstep loop calls this instead of spinning the simulator's node, as a
+        simulator drains its command queue once per step; it is what an executor does
+        for a ready subscription (``take_message``, then the callback), without the
+        cost of a wait set. Returns how many were taken.
+        """
+        taken = 0
+        while True:
+            with self.cmd_sub.handle:
+                got = self.cmd_sub.handle.take_message(self.cmd_sub.msg_type, self.cmd_sub.raw)
+            if got is None:
+                return taken
+            self._on_cmd_vel(got[0])
+            taken += 1
+
     def _on_cmd_vel(self, msg: Twist) -> None:
         self.commands += 1
         self._last_cmd_time = self.sim.time
@@ -253,19 +270,17 @@ class Simulation:
         """
         started = time.perf_counter()
         give_up = math.inf if wall_timeout is None else started + wall_timeout
-        # The session's nodes and the simulator's own node are spun by two executors:
-        # the simulator services its cmd_vel after the others have had their turn,
-        # as Gazebo would in a process of its own, and each wait set stays small.
+        # The session's nodes are spun by an executor; the simulator's own node is not:
+        # it takes its cmd_vel after the others have had their turn, as Gazebo would in
+        # a process of its own, and the executor's wait set stays small.
         nodes = [n for n in ros.nodes if n is not self.node]
         executor = SingleThreadedExecutor()
         for node in nodes:
             executor.add_node(node)
-        own = SingleThreadedExecutor()
-        own.add_node(self.node)
         try:
             if not self._started:
                 self._started = True
-                self._tick(executor, own, nodes, catch_up_timeout, advance=False)
+                self._tick(executor, nodes, catch_up_timeout, advance=False)
             end = self.now + seconds
             while self.now < end - 1e-9:
                 if until is not None and until():
@@ -275,19 +290,17 @@ class Simulation:
                         f"simulating {seconds:g} s took longer than {wall_timeout:g} s of wall "
                         f"time (stopped at t={self.now:.2f} s): a callback is too slow"
                     )
-                self._tick(executor, own, nodes, catch_up_timeout)
+                self._tick(executor, nodes, catch_up_timeout)
             return until is not None and until()
         finally:
-            for ex in (executor, own):
-                for node in list(ex.get_nodes()):
-                    ex.remove_node(node)
-                ex.shutdown(timeout_sec=0)
+            for node in list(executor.get_nodes()):
+                executor.remove_node(node)
+            executor.shutdown(timeout_sec=0)
             self.wall_time += time.perf_counter() - started
 
     def _tick(
         self,
         executor: SingleThreadedExecutor,
-        own: SingleThreadedExecutor,
         nodes: list[Node],
         catch_up_timeout: float,
         advance: bool = True,
@@ -312,7 +325,7 @@ class Simulation:
                 )
             self.node.publish_clock()
             executor.spin_once(timeout_sec=0.002)
-        _drain(own)
+        self.node.take_commands()
 
     @property
     def real_time_factor(self) -> float:
