@@ -1,0 +1,128 @@
+"""Lab 5 graded end to end: fixture submissions for the usual driving mistakes, one batch."""
+
+from __future__ import annotations
+
+import base64
+import re
+from pathlib import Path
+
+import pytest
+
+from tests.labtools import answered, feedback, grade, replace_in_answer, submit
+
+LAB = "lab05_diff_drive"
+
+SLEEPING_SQUARE = """
+class SquareDriver(Node):
+    \"\"\"Open loop with sleeps: drive, sleep, turn, sleep (blocks the executor).\"\"\"
+
+    def __init__(self, node_name='square_driver', side=1.0):
+        super().__init__(node_name)
+        self.side = side
+        self.cmd_pub = self.create_publisher(Twist, 'cmd_vel', 10)
+        self.odom_sub = self.create_subscription(Odometry, 'odom', self.on_odom, 10)
+        self.timer = self.create_timer(0.02, self.on_timer)
+
+    def on_odom(self, msg):
+        pass
+
+    def on_timer(self):
+        import time
+        cmd = Twist()
+        cmd.linear.x = 0.2
+        self.cmd_pub.publish(cmd)
+        time.sleep(1.0)
+"""
+
+
+def fixtures() -> dict[str, object]:
+    return {
+        "right": answered(LAB),
+        "swapped": answered(
+            LAB,
+            **replace_in_answer(LAB, "wheel_speeds", "return left, right", "return right, left"),
+        ),
+        "diameter": answered(
+            LAB,
+            **replace_in_answer(LAB, "wheel_speeds", ") / wheel_radius", ") / (2 * wheel_radius)"),
+        ),
+        "oscillating": answered(
+            LAB,
+            **replace_in_answer(
+                LAB,
+                "go_to_goal",
+                "cmd.angular.z = max(-1.5, min(1.5, 2.0 * heading_error))",
+                "cmd.angular.z = 1.5 if heading_error > 0 else -1.5",
+            ),
+        ),
+        "never_stops": answered(
+            LAB, **replace_in_answer(LAB, "square_driver", "self.legs_done >= 8", "False")
+        ),
+        "sleeping": answered(LAB, square_driver=SLEEPING_SQUARE),
+    }
+
+
+@pytest.fixture(scope="module")
+def graded(tmp_path_factory: pytest.TempPathFactory) -> tuple[dict, Path]:
+    root = tmp_path_factory.mktemp("submissions")
+    for student, notebook in fixtures().items():
+        submit(root, student, LAB, notebook)  # type: ignore[arg-type]
+    out = tmp_path_factory.mktemp("out")
+    rows = grade(root, out, assignment_id=LAB, workers=2, cell_timeout=40)
+    return rows, out
+
+
+def score(graded: tuple[dict, Path], student: str) -> tuple[str, str]:
+    row = graded[0][(student, LAB)]
+    return row["status"], row["score"]
+
+
+def page(graded: tuple[dict, Path], student: str) -> str:
+    return feedback(graded[1], student, LAB)
+
+
+def test_solution_scores_full_marks_and_its_feedback_shows_the_paths(graded) -> None:
+    assert score(graded, "right") == ("ok", "10")
+    images = re.findall(r'src="data:image/png;base64,([^"]+)"', page(graded, "right"))
+    # two runs of each driving check, visible and hidden (three for go_to_goal)
+    assert len(images) >= 5
+    assert all(base64.b64decode(img).startswith(b"\x89PNG") for img in images)
+
+
+def test_swapped_wheels_are_named(graded) -> None:
+    assert score(graded, "swapped") == ("ok", "8")
+    assert "left and right are swapped" in page(graded, "swapped")
+    assert "needs the RIGHT wheel faster" in page(graded, "swapped")
+
+
+def test_radius_used_as_diameter_is_named(graded) -> None:
+    assert score(graded, "diameter") == ("ok", "8")
+    assert "Is the wheel radius used as a diameter" in page(graded, "diameter")
+
+
+def test_oscillating_controller_is_named(graded) -> None:
+    assert score(graded, "oscillating") == ("ok", "6")
+    text = page(graded, "oscillating")
+    assert "the controller oscillates" in text
+    assert re.search(r"the turn rate changed direction \d+ times", text)
+
+
+def test_node_that_never_stops_fails_in_bounded_time(graded) -> None:
+    assert score(graded, "never_stops") == ("ok", "6")
+    text = page(graded, "never_stops")
+    assert "the robot was still moving in the last 2 s of the 35 s run" in text
+    assert "the node never stops" in text
+
+
+def test_blocking_callback_is_stopped_by_the_wall_clock_bound(graded) -> None:
+    assert score(graded, "sleeping") == ("ok", "6")
+    text = page(graded, "sleeping")
+    assert "took longer than 12 s of wall time" in text
+    assert "time.sleep" in text
+
+
+def test_feedback_never_shows_hidden_tests(graded) -> None:
+    for student in fixtures():
+        text = page(graded, student)
+        assert "BEGIN HIDDEN TESTS" not in text
+        assert "square_b" not in text or student == "right"
