@@ -41,6 +41,7 @@ class Session:
     def __init__(self) -> None:
         self._nodes: dict[str, Node] = {}
         self._sim_time = False
+        self._spinner: SingleThreadedExecutor | None = None
 
     # -- context ---------------------------------------------------------------
     @property
@@ -62,11 +63,15 @@ class Session:
         args = ["--ros-args", "-p", "use_sim_time:=true"] if sim_time else None
         rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
         self._sim_time = sim_time
+        self._spinner = None
         _install_tracking(self)
 
     def shutdown(self) -> None:
         """Destroy the session's nodes and shut the context down (safe to repeat)."""
         self.reset()
+        if self._spinner is not None:
+            self._spinner.shutdown(timeout_sec=0)
+            self._spinner = None
         rclpy.try_shutdown()
         self._sim_time = False
 
@@ -103,10 +108,25 @@ class Session:
 
     # -- spinning --------------------------------------------------------------
     def _executor(self, nodes: Iterable[Node]) -> SingleThreadedExecutor:
-        executor = SingleThreadedExecutor()
+        """The session's one executor, holding ``nodes`` for this spin.
+
+        One executor for the whole context, not one per call: coroutines it started
+        (an action server's execute callback awaiting its next step) live in its task
+        list and must still be there at the next spin.
+        """
+        if self._spinner is None:
+            self._spinner = SingleThreadedExecutor()
+        # A spin nested in a callback of another spin gets an executor of its own.
+        executor = SingleThreadedExecutor() if self._spinner.get_nodes() else self._spinner
         for node in nodes or self._nodes.values():
             executor.add_node(node)
         return executor
+
+    def _release(self, executor: SingleThreadedExecutor) -> None:
+        for node in list(executor.get_nodes()):
+            executor.remove_node(node)
+        if executor is not self._spinner:
+            executor.shutdown(timeout_sec=0)
 
     def spin_for(self, seconds: float, *nodes: Node) -> None:
         """Spin ``nodes`` (default: all of the session's) for ``seconds`` of wall time."""
@@ -128,7 +148,7 @@ class Session:
                     return False
                 executor.spin_once(timeout_sec=min(POLL_S, remaining))
         finally:
-            _release(executor)
+            self._release(executor)
 
     def spin_pending(self, *nodes: Node, rounds: int = 20) -> None:
         """Run the callbacks that are ready now, without waiting for new work."""
@@ -137,7 +157,7 @@ class Session:
             for _ in range(rounds):
                 executor.spin_once(timeout_sec=0.0)
         finally:
-            _release(executor)
+            self._release(executor)
 
     # -- simulated time ----------------------------------------------------------
     def sim_clock(self) -> SimClock:
@@ -275,12 +295,6 @@ def _destroy(node: Node) -> None:
         node.destroy_node()
     except Exception:  # already destroyed, or its context is gone
         pass
-
-
-def _release(executor: SingleThreadedExecutor) -> None:
-    for node in list(executor.get_nodes()):
-        executor.remove_node(node)
-    executor.shutdown(timeout_sec=0)
 
 
 #: The kernel's session.
