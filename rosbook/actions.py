@@ -34,18 +34,25 @@ STATUS = {
 }
 
 
-def sleep(node: Node, seconds: float) -> Future:
-    """A future done after ``seconds`` of the node's clock (``await`` it in a coroutine)."""
+async def sleep(node: Node, seconds: float) -> None:
+    """Pause a coroutine for ``seconds`` of the node's clock: ``await sleep(node, s)``.
+
+    A one-shot timer completes a future the coroutine awaits; meanwhile the executor
+    runs other callbacks. The timer is destroyed by the coroutine once it resumes,
+    never inside its own callback (the executor may still hold it there).
+    """
     future = Future()
 
     def wake() -> None:
-        timer.cancel()
-        node.destroy_timer(timer)
         if not future.done():
             future.set_result(None)
 
     timer = node.create_timer(seconds, wake)
-    return future
+    try:
+        await future
+    finally:
+        timer.cancel()
+        node.destroy_timer(timer)
 
 
 @dataclass
@@ -58,6 +65,8 @@ class GoalRun:
     status: int = GoalStatus.STATUS_UNKNOWN
     result: Any = None
     cancel_sent_at: int | None = None  # feedback count when the cancel request went out
+    cancel_time: float | None = None  # client clock then (seconds)
+    end_time: float | None = None  # client clock when the result arrived (seconds)
 
     @property
     def status_name(self) -> str:
@@ -89,9 +98,12 @@ def run_goal(
     try:
         wait_for_server(client, label, min(timeout, 2.0))
 
+        def now() -> float:
+            return node.get_clock().now().nanoseconds / 1e9
+
         def feedback(message: Any) -> None:
             run.feedback.append(message.feedback)
-            run.feedback_times.append(node.get_clock().now().nanoseconds / 1e9)
+            run.feedback_times.append(now())
             if on_feedback is not None:
                 on_feedback(message.feedback)
 
@@ -108,9 +120,11 @@ def run_goal(
             spin(lambda: result.done() or len(run.feedback) >= cancel_after, timeout)
             if not result.done():
                 run.cancel_sent_at = len(run.feedback)
+                run.cancel_time = now()
                 handle.cancel_goal_async()
         spin(result.done, timeout)
         if result.done():
+            run.end_time = now()
             run.status = result.result().status
             run.result = result.result().result
         return run

@@ -14,8 +14,11 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
-from rclpy.executors import SingleThreadedExecutor
+import rclpy
+from rclpy.context import Context
+from rclpy.executors import MultiThreadedExecutor, SingleThreadedExecutor
 from rclpy.node import Node
+from rclpy.signals import SignalHandlerOptions
 from rclpy.task import Future
 
 from rosbook.interfaces import interface_name
@@ -131,3 +134,69 @@ def done_future(value: Any = None) -> Future:
     future = Future()
     future.set_result(value)
     return future
+
+
+class BackgroundServer:
+    """A service server of the test's own, in a context and a thread of its own.
+
+    It answers while the calling thread is blocked or spins only its own node, like a
+    server in another process would, without the start-up time of a process.
+    ``handler(request, response) -> response`` is the service callback; one that makes
+    the caller wait should wait on ``stopping`` so that ``close()`` ends it at once.
+    """
+
+    def __init__(
+        self,
+        srv_type: type,
+        service: str,
+        handler: Callable[[Any, Any], Any],
+        node_name: str = "check_server",
+    ) -> None:
+        self.context = Context()
+        rclpy.init(context=self.context, signal_handler_options=SignalHandlerOptions.NO)
+        self.node = Node(node_name, context=self.context, start_parameter_services=False)
+        self.calls = 0
+        self.stopping = threading.Event()
+        self._busy = 0
+
+        def counted(request: Any, response: Any) -> Any:
+            self.calls += 1
+            self._busy += 1
+            try:
+                return handler(request, response)
+            finally:
+                self._busy -= 1
+
+        self.service = self.node.create_service(srv_type, service, counted)
+        self.executor = MultiThreadedExecutor(num_threads=2, context=self.context)
+        self.executor.add_node(self.node)
+        self._thread = threading.Thread(target=self._spin, name=node_name, daemon=True)
+        self._thread.start()
+
+    def _spin(self) -> None:
+        try:
+            self.executor.spin()
+        except Exception:  # the context was shut down under it: the server is closing
+            pass
+
+    def close(self) -> None:
+        """Stop serving and release the context (safe to repeat)."""
+        if not self.context.ok():
+            return
+        self.stopping.set()
+        # rclpy's executor.shutdown() does not wait for callbacks in flight: let any
+        # handler return and its response go out before the service is destroyed.
+        deadline = time.monotonic() + 2.0
+        while self._busy and time.monotonic() < deadline:
+            time.sleep(0.01)
+        time.sleep(0.05)
+        self.executor.shutdown(timeout_sec=1.0)
+        self.node.destroy_node()
+        rclpy.try_shutdown(context=self.context)
+        self._thread.join(timeout=1.0)
+
+    def __enter__(self) -> BackgroundServer:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
