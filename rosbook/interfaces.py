@@ -69,11 +69,29 @@ def fill(message: Any, values: dict[str, Any] | None) -> Any:
         if isinstance(value, dict) and hasattr(current, "get_fields_and_field_types"):
             fill(current, value)
             continue
+        value = _checked(field, current, value)
         try:
             setattr(message, field, value)
         except (TypeError, ValueError, AssertionError) as exc:
             raise InterfaceError(f"field '{field}' cannot be {value!r}: {exc}") from None
     return message
+
+
+def _checked(field: str, current: Any, value: Any) -> Any:
+    """``value`` fit for a field now holding ``current`` (an int is a fine float)."""
+    kinds = {bool: "a bool", int: "an integer", float: "a number", str: "a string"}
+    kind = type(current)
+    if kind not in kinds:
+        return value
+    fits = (
+        isinstance(value, bool)
+        if kind is bool
+        else not isinstance(value, bool)
+        and isinstance(value, (int, float) if kind is float else kind)
+    )
+    if not fits:
+        raise InterfaceError(f"field '{field}' cannot be {value!r}: it takes {kinds[kind]}")
+    return float(value) if kind is float else value
 
 
 def from_yaml(interface: type, text: str | None) -> Any:

@@ -78,7 +78,7 @@ def call(
     found or none answers in time. The client is destroyed afterwards.
     """
     client = node.create_client(srv_type, service)
-    full_name = client.srv_name
+    full_name = node.resolve_service_name(service)
     try:
         wait_for_server(client, f"{full_name} ({interface_name(srv_type)})", timeout)
         future = client.call_async(srv_type.Request() if request is None else request)
