@@ -15,7 +15,7 @@ from rclpy.node import Node
 
 #: Longest wait for the graph to show what a command needs (seconds of wall time).
 GRAPH_TIMEOUT_S = 5.0
-#: After the first other node is known, how long its endpoints take to arrive.
+#: How long the graph must stay unchanged before a listing trusts it (seconds).
 SETTLE_S = 0.5
 
 
@@ -34,7 +34,27 @@ def other_nodes(node: Node) -> list[tuple[str, str]]:
     return [(n, ns) for n, ns in node.get_node_names_and_namespaces() if not n.startswith("_")]
 
 
+def graph_snapshot(node: Node) -> tuple:
+    """What the graph shows now: nodes, topics and services with their types."""
+    return (
+        sorted(other_nodes(node)),
+        sorted((name, tuple(types)) for name, types in node.get_topic_names_and_types()),
+        sorted((name, tuple(types)) for name, types in node.get_service_names_and_types()),
+    )
+
+
 def settle(node: Node, timeout: float = GRAPH_TIMEOUT_S) -> None:
-    """Wait until some other node is known, then a little more for its endpoints."""
-    if wait_for(lambda: bool(other_nodes(node)), timeout):
-        time.sleep(SETTLE_S)
+    """Wait until some other node is known and the graph stopped changing for a while.
+
+    Node names and their endpoints are announced separately, so the first node seen
+    does not mean its services and topics are known yet.
+    """
+    deadline = time.monotonic() + timeout
+    if not wait_for(lambda: bool(other_nodes(node)), timeout):
+        return
+    last, since = graph_snapshot(node), time.monotonic()
+    while time.monotonic() - since < SETTLE_S and time.monotonic() < deadline:
+        time.sleep(0.05)
+        now = graph_snapshot(node)
+        if now != last:
+            last, since = now, time.monotonic()

@@ -13,7 +13,7 @@ from rclpy.action.graph import (
 from rclpy.node import Node
 
 from rosbook.cli import cli_node
-from rosbook.cli.discovery import settle, wait_for
+from rosbook.cli.discovery import SETTLE_S, settle, wait_for
 
 
 def add_parser(verbs: argparse._SubParsersAction) -> None:
@@ -59,7 +59,8 @@ def action_info(args: argparse.Namespace) -> int:
             )
 
         # The action's name and the nodes behind it are discovered separately.
-        wait_for(lambda: any(users()))
+        if wait_for(lambda: any(users())):
+            settle(node, timeout=SETTLE_S * 4)
         if action not in dict(get_action_names_and_types(node)):
             print(f"ros2 action info: no action '{action}' is running", file=sys.stderr)
             return 1
