@@ -124,6 +124,13 @@ def test_param_list_get_and_set(servers, capsys) -> None:
     assert ros2(capsys, "param", "get", "clock_server", "rate_hz")[1] == "Double value is: 5.0\n"
 
 
+def test_param_list_without_a_node_lists_every_node(servers, capsys) -> None:
+    status, out, _ = ros2(capsys, "param", "list")
+    assert status == 0
+    assert "/clock_server:\n  rate_hz\n" in out and "/countdown_server:\n  rate_hz\n" in out
+    assert "_ros2cli" not in out
+
+
 def test_param_errors_name_the_reason(servers, capsys) -> None:
     status, out, err = ros2(capsys, "param", "set", "/clock_server", "rate_hz", "-1.0")
     assert (status, out, err) == (1, "", "Setting parameter failed: rate_hz must be > 0\n")

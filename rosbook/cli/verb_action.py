@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+from collections.abc import Callable
 
 from rclpy.action.graph import (
     get_action_client_names_and_types_by_node,
@@ -14,6 +15,9 @@ from rclpy.node import Node
 
 from rosbook.cli import cli_node
 from rosbook.cli.discovery import SETTLE_S, settle, wait_for
+
+#: A by-node action lookup of ``rclpy.action.graph``.
+Lookup = Callable[[Node, str, str], list[tuple[str, list[str]]]]
 
 
 def add_parser(verbs: argparse._SubParsersAction) -> None:
@@ -37,7 +41,8 @@ def list_actions(args: argparse.Namespace) -> int:
     return 0
 
 
-def _users(node: Node, action: str, lookup) -> list[tuple[str, list[str]]]:  # noqa: ANN001
+def _users(node: Node, action: str, lookup: Lookup) -> list[tuple[str, list[str]]]:
+    """(full name, types) of the visible nodes that ``lookup`` finds on ``action``."""
     found = []
     for name, namespace in node.get_node_names_and_namespaces():
         if name.startswith("_"):
