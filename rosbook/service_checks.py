@@ -24,6 +24,8 @@ from rosbook.session import SimClock, ros
 
 #: Simulated seconds a goal may take in a check before it counts as never finishing.
 GOAL_SIM_TIMEOUT_S = 12.0
+#: Wall-clock bound for the check's node to discover a server in another context.
+DISCOVERY_S = 10.0
 #: Simulated time step of the checks: every period they use is a multiple of it.
 SIM_STEP_S = 0.05
 
@@ -73,11 +75,29 @@ def assert_tells_time(server: Node, clock: SimClock, at: float) -> None:
 
 
 def _trigger_call(
-    call_trigger: Callable[..., Any], service: str, timeout_s: float, deadline_s: float
+    call_trigger: Callable[..., Any],
+    service: str,
+    timeout_s: float,
+    deadline_s: float,
+    server_up: bool = False,
 ) -> tuple[Any, float]:
-    """Run the student's ``call_trigger`` under a deadline; (returned value, seconds)."""
+    """Run the student's ``call_trigger`` under a deadline; (returned value, seconds).
+
+    With ``server_up`` the check first waits until its node has discovered the server
+    (another DDS participant can take seconds to meet), so that ``timeout_s`` is spent
+    on the call, not on discovery.
+    """
     node = Node("trigger_check_client")
     try:
+        if server_up:
+            seen = node.create_client(Trigger, service)
+            try:
+                assert seen.wait_for_service(timeout_sec=DISCOVERY_S), (
+                    f"the check's own server on {service} was not discovered within "
+                    f"{DISCOVERY_S:g} s (a problem of the grading machine, not of your code)"
+                )
+            finally:
+                node.destroy_client(seen)
         outcome = run_with_deadline(lambda: call_trigger(node, service, timeout_s), deadline_s)
         where = f"call_trigger(node, {service!r}, {timeout_s})"
         if not outcome.finished:
@@ -116,7 +136,9 @@ def assert_call_trigger_answers(call_trigger: Callable[..., Any], service: str) 
         return response
 
     with BackgroundServer(Trigger, service, answer, node_name="trigger_check_server") as server:
-        value, _ = _trigger_call(call_trigger, service, timeout_s=2.0, deadline_s=4.0)
+        value, _ = _trigger_call(
+            call_trigger, service, timeout_s=2.0, deadline_s=4.0, server_up=True
+        )
         assert server.calls >= 1, (
             f"call_trigger returned {value!r} without calling {service}: create a client "
             "for the service_name argument and send a request"
@@ -146,7 +168,9 @@ def assert_call_trigger_gives_up(
         server = BackgroundServer(Trigger, service, slow, node_name="slow_check_server")
     what = "a server slower than the timeout" if slow_server else "no server"
     try:
-        value, seconds = _trigger_call(call_trigger, service, timeout_s, timeout_s + 1.5)
+        value, seconds = _trigger_call(
+            call_trigger, service, timeout_s, timeout_s + 1.5, server_up=slow_server
+        )
     finally:
         if server is not None:
             server.close()

@@ -51,7 +51,7 @@ def test_background_server_answers_without_the_session_spinning_it(session) -> N
         return response
 
     with BackgroundServer(Trigger, "bg", answer) as server:
-        response = call(Node("asker"), Trigger, "bg")
+        response = call(Node("asker"), Trigger, "bg", timeout=10.0)  # another participant
     assert (response.message, server.calls) == ("from the background", 1)
 
 
