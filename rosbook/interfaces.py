@@ -3,8 +3,9 @@
 The ROS 2 wheels install each interface package's definitions next to the venv, in
 ``<prefix>/share/<package>/msg/*.msg`` (and ``srv``, ``action``), listed by the ament
 resource index in ``<prefix>/share/ament_index/resource_index/rosidl_interfaces/``.
-This module reads those files, imports the generated Python classes and turns a
-message into the YAML text ``ros2 topic echo`` prints.
+This module reads those files, imports the generated Python classes, turns a message
+into the YAML text ``ros2 topic echo`` prints, and fills a request from the YAML-ish
+text ``ros2 service call`` takes (``"{data: true}"``).
 """
 
 from __future__ import annotations
@@ -28,8 +29,8 @@ PRIMITIVES = frozenset(
 _KINDS = ("msg", "srv", "action")
 
 
-class InterfaceError(LookupError):
-    """An interface name that is malformed or not installed (a one-line message)."""
+class InterfaceError(LookupError, ValueError):
+    """A malformed or not installed interface name, or a bad field value (one line)."""
 
 
 def split_type(type_name: str) -> tuple[str, str, str]:
@@ -163,13 +164,26 @@ def _nested_type(field_type: str, package: str) -> str | None:
 
 
 def message_class(type_name: str) -> type:
-    """The generated Python class of ``type_name`` (``std_msgs.msg.String``)."""
+    """The generated Python class of ``type_name`` (a msg, srv or action type)."""
     package, kind, name = split_type(type_name)
     try:
         module = importlib.import_module(f"{package}.{kind}")
+    except ImportError:
+        raise InterfaceError(
+            f"unknown interface '{type_name}': no package '{package}' with {kind} types"
+        ) from None
+    try:
         return getattr(module, name)  # type: ignore[no-any-return]
-    except (ImportError, AttributeError):
-        raise InterfaceError(f"unknown interface '{type_name}': no Python class for it") from None
+    except AttributeError:
+        raise InterfaceError(
+            f"unknown interface '{type_name}': '{package}' has no {kind} '{name}'"
+        ) from None
+
+
+def interface_name(interface: type) -> str:
+    """``std_srvs/srv/Trigger`` for ``std_srvs.srv.Trigger`` (any msg, srv or action)."""
+    parts = interface.__module__.split(".")
+    return f"{parts[0]}/{parts[1]}/{interface.__name__}"
 
 
 def fields(type_name: str) -> dict[str, str]:
@@ -194,3 +208,51 @@ def to_yaml(msg: Any) -> str:
         to_plain(msg), default_flow_style=False, sort_keys=False, allow_unicode=True, width=1000
     )
     return text.rstrip("\n")
+
+
+def fill(message: Any, values: dict[str, Any] | None) -> Any:
+    """Set ``message``'s fields from a dict (nested dicts for nested messages); returns it."""
+    for field, value in (values or {}).items():
+        if not hasattr(message, field) or field.startswith("_"):
+            fields = ", ".join(message.get_fields_and_field_types()) or "none"
+            raise InterfaceError(
+                f"{type(message).__name__} has no field '{field}' (its fields: {fields})"
+            )
+        current = getattr(message, field)
+        if isinstance(value, dict) and hasattr(current, "get_fields_and_field_types"):
+            fill(current, value)
+            continue
+        value = _checked(field, current, value)
+        try:
+            setattr(message, field, value)
+        except (TypeError, ValueError, AssertionError) as exc:
+            raise InterfaceError(f"field '{field}' cannot be {value!r}: {exc}") from None
+    return message
+
+
+def _checked(field: str, current: Any, value: Any) -> Any:
+    """``value`` fit for a field now holding ``current`` (an int is a fine float)."""
+    kinds = {bool: "a bool", int: "an integer", float: "a number", str: "a string"}
+    kind = type(current)
+    if kind not in kinds:
+        return value
+    fits = (
+        isinstance(value, bool)
+        if kind is bool
+        else not isinstance(value, bool)
+        and isinstance(value, (int, float) if kind is float else kind)
+    )
+    if not fits:
+        raise InterfaceError(f"field '{field}' cannot be {value!r}: it takes {kinds[kind]}")
+    return float(value) if kind is float else value
+
+
+def from_yaml(interface: type, text: str | None) -> Any:
+    """An instance of ``interface`` (a message class) filled from YAML-ish ``text``."""
+    try:
+        values = yaml.safe_load(text) if text else {}
+    except yaml.YAMLError as exc:
+        raise InterfaceError(f"cannot read {text!r} as YAML: {exc}") from None
+    if values is not None and not isinstance(values, dict):
+        raise InterfaceError(f"{text!r} is not a mapping like '{{field: value}}'")
+    return fill(interface(), values)

@@ -42,6 +42,7 @@ class Session:
     def __init__(self) -> None:
         self._nodes: dict[str, Node] = {}
         self._sim_time = False
+        self._spinner: SingleThreadedExecutor | None = None
 
     # -- context ---------------------------------------------------------------
     @property
@@ -63,11 +64,15 @@ class Session:
         args = ["--ros-args", "-p", "use_sim_time:=true"] if sim_time else None
         rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
         self._sim_time = sim_time
+        self._spinner = None
         _install_tracking(self)
 
     def shutdown(self) -> None:
         """Destroy the session's nodes and shut the context down (safe to repeat)."""
         self.reset()
+        if self._spinner is not None:
+            self._spinner.shutdown(timeout_sec=0)
+            self._spinner = None
         rclpy.try_shutdown()
         self._sim_time = False
 
@@ -104,10 +109,25 @@ class Session:
 
     # -- spinning --------------------------------------------------------------
     def _executor(self, nodes: Iterable[Node]) -> SingleThreadedExecutor:
-        executor = SingleThreadedExecutor()
+        """The session's one executor, holding ``nodes`` for this spin.
+
+        One executor for the whole context, not one per call: coroutines it started
+        (an action server's execute callback awaiting its next step) live in its task
+        list and must still be there at the next spin.
+        """
+        if self._spinner is None:
+            self._spinner = SingleThreadedExecutor()
+        # A spin nested in a callback of another spin gets an executor of its own.
+        executor = SingleThreadedExecutor() if self._spinner.get_nodes() else self._spinner
         for node in nodes or self._nodes.values():
             executor.add_node(node)
         return executor
+
+    def _release(self, executor: SingleThreadedExecutor) -> None:
+        for node in list(executor.get_nodes()):
+            executor.remove_node(node)
+        if executor is not self._spinner:
+            executor.shutdown(timeout_sec=0)
 
     def spin_for(self, seconds: float, *nodes: Node) -> None:
         """Spin ``nodes`` (default: all of the session's) for ``seconds`` of wall time."""
@@ -122,7 +142,7 @@ class Session:
         try:
             return _spin_executor(executor, condition, timeout)
         finally:
-            _release(executor)
+            self._release(executor)
             _settle_output()
 
     def spin_pending(self, *nodes: Node, rounds: int = 20) -> None:
@@ -131,7 +151,7 @@ class Session:
         try:
             _drain(executor, rounds)
         finally:
-            _release(executor)
+            self._release(executor)
 
     # -- simulated time ----------------------------------------------------------
     def sim_clock(self) -> SimClock:
@@ -175,7 +195,7 @@ class SimClock:
                 self._publish_and_wait(executor, watched, catch_up_timeout)
                 _drain(executor, rounds=8)
         finally:
-            _release(executor)
+            self._session._release(executor)
 
     def advance_remote(self, seconds: float, step: float = 0.05, settle: float = 0.02) -> None:
         """Advance ``/clock`` for nodes in other processes, whose clocks we cannot read.
@@ -302,12 +322,6 @@ def _destroy(node: Node) -> None:
         node.destroy_node()
     except Exception:  # already destroyed, or its context is gone
         pass
-
-
-def _release(executor: SingleThreadedExecutor) -> None:
-    for node in list(executor.get_nodes()):
-        executor.remove_node(node)
-    executor.shutdown(timeout_sec=0)
 
 
 #: The kernel's session.

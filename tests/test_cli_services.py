@@ -1,0 +1,143 @@
+"""``ros2 service/action/param`` against live nodes running in another process."""
+
+from __future__ import annotations
+
+import signal
+import subprocess
+import sys
+from collections.abc import Iterator
+
+import pytest
+
+from rosbook.cli import main
+
+pytestmark = pytest.mark.filterwarnings("ignore::DeprecationWarning")
+
+
+@pytest.fixture(scope="module")
+def servers() -> Iterator[subprocess.Popen]:
+    """``rosbook.demo_nodes`` (clock_server, countdown_server) as a process of its own."""
+    process = subprocess.Popen(
+        [sys.executable, "-m", "rosbook.demo_nodes"],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    yield process
+    process.send_signal(signal.SIGINT)
+    try:
+        _, err = process.communicate(timeout=10)
+    except subprocess.TimeoutExpired:
+        process.kill()
+        raise
+    assert process.returncode == 0, err
+
+
+def ros2(capsys: pytest.CaptureFixture[str], *argv: str) -> tuple[int, str, str]:
+    """Run ``ros2 ARGV`` in this process: exit status, stdout, stderr."""
+    status = main(list(argv))
+    out, err = capsys.readouterr()
+    return status, out, err
+
+
+def test_service_list_shows_the_running_services_with_types(servers, capsys) -> None:
+    status, out, _ = ros2(capsys, "service", "list", "-t")
+    assert status == 0
+    lines = out.splitlines()
+    assert "/what_time [std_srvs/srv/Trigger]" in lines
+    assert "/switch [std_srvs/srv/SetBool]" in lines
+    assert "/clock_server/set_parameters [rcl_interfaces/srv/SetParameters]" in lines
+    assert not [ln for ln in lines if "/_action/" in ln], "an action's services are hidden"
+    status, out, _ = ros2(capsys, "service", "list")
+    assert "/what_time" in out.splitlines()
+
+
+def test_service_type_names_the_type_or_fails_in_one_line(servers, capsys) -> None:
+    assert ros2(capsys, "service", "type", "/switch") == (0, "std_srvs/srv/SetBool\n", "")
+    status, out, err = ros2(capsys, "service", "type", "/no_such_service")
+    assert (status, out) == (1, "")
+    assert err == "ros2 service type: no service '/no_such_service' is running\n"
+
+
+def test_service_call_sends_the_yaml_request_and_prints_the_response(servers, capsys) -> None:
+    status, out, _ = ros2(
+        capsys, "service", "call", "/switch", "std_srvs/srv/SetBool", "{data: true}"
+    )
+    assert status == 0
+    assert "requester: making request: std_srvs.srv.SetBool_Request(data=True)" in out
+    assert "std_srvs.srv.SetBool_Response(success=True, message='on')" in out
+    status, out, _ = ros2(capsys, "service", "call", "/what_time", "std_srvs/srv/Trigger")
+    assert status == 0 and "success=True, message='It is " in out
+
+
+@pytest.mark.parametrize(
+    ("argv", "error"),
+    [
+        (
+            ["/switch", "std_srvs/srv/NoSuch"],
+            "ros2 service call: unknown interface 'std_srvs/srv/NoSuch': "
+            "'std_srvs' has no srv 'NoSuch'\n",
+        ),
+        (
+            ["/switch", "std_srvs/srv/SetBool", "{value: 1}"],
+            "ros2 service call: SetBool_Request has no field 'value' (its fields: data)\n",
+        ),
+        (
+            ["/nobody", "std_srvs/srv/Trigger", "", "--timeout", "0.5"],
+            "ros2 service call: no server for '/nobody (std_srvs/srv/Trigger)' "
+            "appeared within 0.5 s\n",
+        ),
+    ],
+    ids=["unknown_type", "unknown_field", "no_server"],
+)
+def test_service_call_errors_are_one_line_on_stderr(servers, capsys, argv, error) -> None:
+    status, out, err = ros2(capsys, "service", "call", *argv)
+    assert (status, err) == (1, error)
+    assert "Traceback" not in out + err
+
+
+def test_action_list_and_info(servers, capsys) -> None:
+    status, out, _ = ros2(capsys, "action", "list", "-t")
+    assert (status, out) == (0, "/countdown [test_msgs/action/Fibonacci]\n")
+    status, out, _ = ros2(capsys, "action", "info", "/countdown")
+    assert status == 0
+    assert (
+        out == "Action: /countdown\nAction clients: 0\nAction servers: 1\n    /countdown_server\n"
+    )
+    status, out, err = ros2(capsys, "action", "info", "/nothing")
+    assert (status, out, err) == (1, "", "ros2 action info: no action '/nothing' is running\n")
+
+
+def test_param_list_get_and_set(servers, capsys) -> None:
+    status, out, _ = ros2(capsys, "param", "list", "/clock_server")
+    assert status == 0
+    assert out == ("/clock_server:\n  rate_hz\n  start_type_description_service\n  use_sim_time\n")
+    assert ros2(capsys, "param", "get", "/clock_server", "rate_hz") == (
+        0,
+        "Double value is: 2.0\n",
+        "",
+    )
+    assert ros2(capsys, "param", "set", "/clock_server", "rate_hz", "5.0")[:2] == (
+        0,
+        "Set parameter successful\n",
+    )
+    assert ros2(capsys, "param", "get", "clock_server", "rate_hz")[1] == "Double value is: 5.0\n"
+
+
+def test_param_list_without_a_node_lists_every_node(servers, capsys) -> None:
+    status, out, _ = ros2(capsys, "param", "list")
+    assert status == 0
+    assert "/clock_server:\n  rate_hz\n" in out and "/countdown_server:\n  rate_hz\n" in out
+    assert "_ros2cli" not in out
+
+
+def test_param_errors_name_the_reason(servers, capsys) -> None:
+    status, out, err = ros2(capsys, "param", "set", "/clock_server", "rate_hz", "-1.0")
+    assert (status, out, err) == (1, "", "Setting parameter failed: rate_hz must be > 0\n")
+    status, _, err = ros2(capsys, "param", "get", "/clock_server", "rate")
+    assert (status, err) == (
+        1,
+        "ros2 param get: node '/clock_server' has no parameter 'rate' (is it declared?)\n",
+    )
+    status, _, err = ros2(capsys, "param", "get", "/nobody", "rate_hz")
+    assert (status, err) == (1, "ros2 param get: no node '/nobody' answers\n")

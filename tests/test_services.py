@@ -1,0 +1,165 @@
+"""rosbook.services / actions / params / interfaces / service_checks on live nodes in-process."""
+
+from __future__ import annotations
+
+import time
+
+import pytest
+from rclpy.action import ActionServer
+from rclpy.node import Node
+from rclpy.parameter import Parameter
+from std_srvs.srv import SetBool, Trigger
+from test_msgs.action import Fibonacci
+
+from rosbook import service_checks
+from rosbook.actions import run_goal
+from rosbook.demo_nodes import ClockServer, CountdownServer
+from rosbook.interfaces import InterfaceError, definition, from_yaml, message_class
+from rosbook.params import ParameterError, get_parameter, list_parameters, set_parameter
+from rosbook.services import BackgroundServer, ServiceCallError, call, run_with_deadline
+from rosbook.session import Session
+
+
+def test_call_returns_the_response_of_a_server_in_the_session(session: Session) -> None:
+    server = ClockServer()
+    response = call(Node("asker"), SetBool, "switch", SetBool.Request(data=True))
+    assert (response.success, response.message, server.switched_on) == (True, "on", True)
+
+
+def test_call_without_a_server_fails_in_time_naming_service_and_type(session: Session) -> None:
+    start = time.monotonic()
+    with pytest.raises(ServiceCallError, match=r"no server for '/nobody \(std_srvs/srv/Trigger\)'"):
+        call(Node("asker"), Trigger, "nobody", timeout=0.3)
+    assert time.monotonic() - start < 2.0
+
+
+def test_a_synchronous_call_in_the_spinning_thread_is_stuck_and_bounded(session) -> None:
+    ClockServer()
+    asker = Node("asker")
+    client = asker.create_client(Trigger, "what_time")
+    assert client.wait_for_service(timeout_sec=2.0)
+    stuck = run_with_deadline(lambda: client.call(Trigger.Request()), 1.0)
+    assert not stuck.finished and 1.0 <= stuck.seconds < 2.0
+    # Spinning (server and client) is what was missing: the blocked call then returns.
+    assert session.spin_until(lambda: stuck.finished, timeout=2.0)
+    assert stuck.value.success
+
+
+def test_background_server_answers_without_the_session_spinning_it(session) -> None:
+    def answer(request: Trigger.Request, response: Trigger.Response) -> Trigger.Response:
+        response.success, response.message = True, "from the background"
+        return response
+
+    with BackgroundServer(Trigger, "bg", answer) as server:
+        response = call(Node("asker"), Trigger, "bg", timeout=10.0)  # another participant
+    assert (response.message, server.calls) == ("from the background", 1)
+
+
+def test_countdown_on_simulated_time_has_exact_steps_and_no_timer_left(session) -> None:
+    clock = session.sim_clock()
+    server = CountdownServer()
+    timers = len(list(server.timers))
+    run = service_checks.countdown(clock, order=3)
+    service_checks.assert_counts_down(run, order=3, rate_hz=2.0)
+    gaps = [round(b - a, 3) for a, b in zip(run.feedback_times, run.feedback_times[1:])]
+    assert gaps == [0.5, 0.5, 0.5]
+    assert len(list(server.timers)) == timers, "sleep() must destroy its one-shot timers"
+
+
+def test_cancel_is_honoured_within_one_step(session) -> None:
+    clock = session.sim_clock()
+    CountdownServer()
+    run = service_checks.countdown(clock, order=10, cancel_after=3)
+    service_checks.assert_cancel_honoured(run, rate_hz=2.0)
+    assert list(run.result.sequence) == [10, 9, 8]
+
+
+class DeafCountdown(CountdownServer):
+    """The usual mistake: no cancel_callback, so every cancel request is rejected."""
+
+    def __init__(self) -> None:
+        Node.__init__(self, "countdown_server")
+        self.declare_parameter("rate_hz", 2.0)
+        self.server = ActionServer(self, Fibonacci, "countdown", self.execute)
+
+
+def test_ignored_cancel_is_reported(session) -> None:
+    clock = session.sim_clock()
+    DeafCountdown()
+    run = service_checks.countdown(clock, order=4, cancel_after=2)
+    assert run.status_name == "SUCCEEDED"
+    with pytest.raises(AssertionError, match="the cancel was ignored"):
+        service_checks.assert_cancel_honoured(run, rate_hz=2.0)
+
+
+def test_run_goal_wall_time_prints_feedback(session) -> None:
+    CountdownServer().set_parameters([Parameter("rate_hz", value=20.0)])
+    seen: list[list[int]] = []
+    run = run_goal(
+        Node("user"),
+        Fibonacci,
+        "countdown",
+        Fibonacci.Goal(order=2),
+        on_feedback=lambda f: seen.append(list(f.sequence)),
+    )
+    assert (run.status_name, seen) == ("SUCCEEDED", [[2], [2, 1], [2, 1, 0]])
+
+
+def test_parameters_from_outside(session) -> None:
+    ClockServer()
+    outsider = Node("outsider")
+    assert "rate_hz" in list_parameters(outsider, "/clock_server")
+    assert get_parameter(outsider, "/clock_server", "rate_hz") == 2.0
+    assert set_parameter(outsider, "/clock_server", "rate_hz", "4.5").successful
+    assert get_parameter(outsider, "/clock_server", "rate_hz") == 4.5
+    refused = set_parameter(outsider, "/clock_server", "rate_hz", -1.0)
+    assert (refused.successful, refused.reason) == (False, "rate_hz must be > 0")
+    with pytest.raises(ParameterError, match="has no parameter 'rate'"):
+        get_parameter(outsider, "/clock_server", "rate")
+
+
+def test_interfaces_by_name_yaml_and_definition() -> None:
+    assert message_class("std_srvs/srv/SetBool") is SetBool
+    assert from_yaml(SetBool.Request, "{data: true}").data is True
+    goal = from_yaml(Fibonacci.Goal, "order: 5")
+    assert goal.order == 5
+    assert "bool success" in definition("std_srvs/srv/Trigger")
+    assert definition("test_msgs/action/Fibonacci").count("---") == 2
+    for bad, message in [
+        ("std_srvs/Trigger", "is not an interface name"),
+        ("no_pkg/srv/X", "no package 'no_pkg'"),
+        ("std_srvs/srv/Nope", "'std_srvs' has no srv 'Nope'"),
+    ]:
+        with pytest.raises(InterfaceError, match=message):
+            message_class(bad)
+    with pytest.raises(InterfaceError, match="cannot be 'yes please'"):
+        from_yaml(Fibonacci.Goal, "{order: 'yes please'}")
+
+
+def sync_call_trigger(node: Node, service_name: str, timeout_s: float):  # noqa: ANN201
+    """A student's call_trigger with the blocking call: deadlocks when nobody spins."""
+    client = node.create_client(Trigger, service_name)
+    if not client.wait_for_service(timeout_sec=timeout_s):
+        return None
+    return client.call(Trigger.Request())
+
+
+def test_check_names_the_deadlock_of_a_synchronous_call_quickly(session) -> None:
+    start = time.monotonic()
+    with pytest.raises(AssertionError, match="deadlock of a synchronous call inside a callback"):
+        service_checks.assert_call_trigger_answers(sync_call_trigger, "check_trigger")
+    assert time.monotonic() - start < 8.0
+
+
+def test_check_of_undeclared_parameter_says_declare_it(session) -> None:
+    clock = session.sim_clock()
+
+    class Undeclared(Node):
+        def __init__(self) -> None:
+            super().__init__("rate_publisher")
+            self.rate_hz = 2.0
+
+    node = Undeclared()
+    with pytest.raises(AssertionError, match=r"declare it in __init__ with self.declare_parameter"):
+        service_checks.assert_declared(node, "rate_hz", 2.0)
+    assert clock.now == 0.0
