@@ -25,6 +25,7 @@ or interface) raise ``GraphError`` with a one-line message.
 from __future__ import annotations
 
 import math
+import os
 import time
 from collections import deque
 from collections.abc import Callable
@@ -39,6 +40,7 @@ from rclpy.topic_endpoint_info import TopicEndpointInfo
 
 from rosbook.interfaces import InterfaceError, message_class
 from rosbook.interfaces import show as interface_show
+from rosbook.isolation import FASTDDS_PROFILE
 from rosbook.session import ros
 
 __all__ = [
@@ -124,10 +126,13 @@ def snapshot(node: Node | None = None) -> tuple[object, ...]:
     return (tuple(sorted(watcher.get_fully_qualified_node_names())), tuple(topics), counts)
 
 
-#: Fast DDS's default period of participant announcements (seconds). A process that
-#: just started learns of the older ones when they next announce themselves, so it
-#: may need this long to see the whole graph (the real CLI keeps a daemon for this).
-ANNOUNCE_PERIOD_S = 3.0
+#: Period of participant announcements (seconds): Fast DDS's default is 3 s; this
+#: project's isolated runs use 0.25 s (rosbook/fastdds_local.xml). A process that just
+#: started learns of the older ones when they next announce themselves, so it may need
+#: this long to see the whole graph (the real CLI keeps a daemon for this).
+ANNOUNCE_PERIOD_S = (
+    0.25 if os.environ.get("FASTRTPS_DEFAULT_PROFILES_FILE") == str(FASTDDS_PROFILE) else 3.0
+)
 
 
 def settle(

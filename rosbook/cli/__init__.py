@@ -27,7 +27,7 @@ from rclpy.signals import SignalHandlerOptions
 
 #: Wall time a fresh CLI node waits for discovery before it reads the graph
 #: (the real ``ros2`` CLI keeps a daemon running for this; we start cold each time).
-DISCOVERY_S = 1.0
+DISCOVERY_S = 0.5
 
 
 @contextmanager
