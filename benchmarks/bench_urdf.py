@@ -21,7 +21,7 @@ MB = 1e6
 
 def run() -> list[Figure]:
     with tempfile.TemporaryDirectory(prefix="bench_urdf_") as tmp:
-        html = bookpages.build_chapters([CHAPTER], Path(tmp))
+        html = bookpages.build(Path(tmp), [CHAPTER])
         page = html / f"{CHAPTER}.html"
         weight = bookpages.page_weight(page)
         theme = bookpages.page_weight(html / "book" / "intro.html")

@@ -23,42 +23,34 @@ from rosbook.viz import SCENE_CLASS
 ROOT = Path(__file__).resolve().parent.parent
 
 
-def build_chapters(chapters: list[str], out: Path, timeout: float = 900) -> Path:
-    """Build only ``chapters`` (e.g. ``["book/urdf_digital_twin"]``) into ``out``.
+def build(out: Path, chapters: list[str] | None = None, timeout: float = 1800) -> Path:
+    """Build the book, or only ``chapters`` (e.g. ``["book/urdf_digital_twin"]``), into ``out``.
 
-    The book's ``_config.yml`` is used with a table of contents of its own (intro plus
-    the chapters), in a ROS domain of its own, with ``-W -n --keep-going`` like ``make
-    book``. Returns the HTML folder; raises ``RuntimeError`` with the log on failure.
+    As ``make book`` builds it (``--all -W -n --keep-going``: a warning, a failing or a
+    timed-out cell fails it), from a fresh execution cache, in a ROS domain of its own.
+    ``chapters`` get a table of contents of their own (the intro plus them). Returns
+    the HTML folder; raises ``RuntimeError`` with the end of the log on failure.
     """
     out.mkdir(parents=True, exist_ok=True)
-    toc = out / "_toc.yml"
-    entries = "\n".join(f"      - file: {c}" for c in chapters)
-    toc.write_text(
-        "format: jb-book\nroot: book/intro\nparts:\n  - caption: Chapters\n"
-        f"    numbered: true\n    chapters:\n{entries}\n"
-    )
     command = [
-        sys.executable,
-        "-m",
-        "rosbook.isolation",
-        "--",
+        sys.executable, "-m", "rosbook.isolation", "--",
         str(Path(sys.executable).with_name("jupyter-book")),
-        "build",
-        "--all",
-        "-W",
-        "-n",
-        "--keep-going",
-        "--toc",
-        str(toc),
-        "--path-output",
-        str(out),
-        ".",
-    ]
+        "build", "--all", "-W", "-n", "--keep-going", "--path-output", str(out),
+    ]  # fmt: skip
+    if chapters is not None:
+        toc = out / "_toc.yml"
+        entries = "\n".join(f"      - file: {c}" for c in chapters)
+        toc.write_text(
+            "format: jb-book\nroot: book/intro\nparts:\n  - caption: Chapters\n"
+            f"    numbered: true\n    chapters:\n{entries}\n"
+        )
+        command += ["--toc", str(toc)]
     done = subprocess.run(
-        command, cwd=ROOT, capture_output=True, text=True, timeout=timeout, check=False
+        [*command, "."], cwd=ROOT, capture_output=True, text=True, timeout=timeout, check=False
     )
     if done.returncode != 0:
-        raise RuntimeError(f"book build failed ({done.returncode}):\n{done.stdout}\n{done.stderr}")
+        tail = "\n".join((done.stdout + done.stderr).splitlines()[-60:])
+        raise RuntimeError(f"book build failed (exit {done.returncode}):\n{tail}")
     return out / "_build" / "html"
 
 

@@ -33,7 +33,6 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import rclpy.action
-from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.topic_endpoint_info import TopicEndpointInfo
@@ -92,21 +91,7 @@ def observer(node: Node | None = None) -> Node:
 
 def _spin_until(node: Node, condition: Callable[[], bool], timeout: float) -> bool:
     """Spin until ``condition()``: the whole notebook session, or ``node`` alone."""
-    if any(node is tracked for tracked in ros.nodes):
-        return ros.spin_until(condition, timeout=timeout)
-    executor = SingleThreadedExecutor(context=node.context)
-    executor.add_node(node)
-    deadline = time.monotonic() + timeout
-    try:
-        while not condition():
-            remaining = deadline - time.monotonic()
-            if remaining <= 0:
-                return False
-            executor.spin_once(timeout_sec=min(0.05, remaining))
-        return True
-    finally:
-        executor.remove_node(node)
-        executor.shutdown(timeout_sec=0)
+    return ros.spin_with(node, condition, timeout)
 
 
 def wait_for(

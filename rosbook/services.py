@@ -16,7 +16,7 @@ from typing import Any
 
 import rclpy
 from rclpy.context import Context
-from rclpy.executors import MultiThreadedExecutor, SingleThreadedExecutor
+from rclpy.executors import MultiThreadedExecutor
 from rclpy.node import Node
 from rclpy.signals import SignalHandlerOptions
 from rclpy.task import Future
@@ -38,21 +38,7 @@ def spin_until(condition: Callable[[], bool], node: Node, timeout: float) -> boo
     A node of the notebook session spins with every node of the session (a server in
     the same kernel must run to answer); a node of another context (the CLI's) alone.
     """
-    if any(n is node for n in ros.nodes):
-        return ros.spin_until(condition, timeout=timeout)
-    executor = SingleThreadedExecutor(context=node.context)
-    executor.add_node(node)
-    deadline = time.monotonic() + timeout
-    try:
-        while not condition():
-            remaining = deadline - time.monotonic()
-            if remaining <= 0:
-                return False
-            executor.spin_once(timeout_sec=min(0.01, remaining))
-        return True
-    finally:
-        executor.remove_node(node)
-        executor.shutdown(timeout_sec=0)
+    return ros.spin_with(node, condition, timeout)
 
 
 def wait_for_server(client: Any, name: str, timeout: float = DISCOVERY_TIMEOUT_S) -> None:

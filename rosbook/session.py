@@ -145,6 +145,20 @@ class Session:
             self._release(executor)
             _settle_output()
 
+    def spin_with(self, node: Node, condition: Callable[[], bool], timeout: float) -> bool:
+        """Spin until ``condition()``: the whole session if ``node`` belongs to it (a
+        server in the same kernel must run to answer), else ``node`` alone in its own
+        context (a command-line tool's node)."""
+        if any(node is tracked for tracked in self._nodes.values()):
+            return self.spin_until(condition, timeout=timeout)
+        executor = SingleThreadedExecutor(context=node.context)
+        executor.add_node(node)
+        try:
+            return _spin_executor(executor, condition, timeout)
+        finally:
+            executor.remove_node(node)
+            executor.shutdown(timeout_sec=0)
+
     def spin_pending(self, *nodes: Node, rounds: int = 20) -> None:
         """Run the callbacks that are ready now, without waiting for new work."""
         executor = self._executor(nodes)

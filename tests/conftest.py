@@ -2,14 +2,12 @@
 
 from __future__ import annotations
 
-import subprocess
-import sys
 from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
 
-from autograder.config import ROOT
+from rosbook import bookpages
 from rosbook.isolation import isolated_environ
 from rosbook.session import Session, ros
 
@@ -32,34 +30,6 @@ def session() -> Iterator[Session]:
 
 @pytest.fixture(scope="session")
 def built_book(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    """The whole book built once per test run, every cell executed from a fresh cache.
-
-    Built as `make book` builds it (`--all -W -n --keep-going`, so a warning, a failing
-    or a timed-out cell fails it), in a ROS domain of its own. Returns `_build/html`.
-    """
-    out = tmp_path_factory.mktemp("book")
-    result = subprocess.run(
-        [
-            sys.executable,
-            "-m",
-            "rosbook.isolation",
-            "--",
-            str(Path(sys.executable).parent / "jupyter-book"),
-            "build",
-            "--all",
-            "-W",
-            "-n",
-            "--keep-going",
-            "--path-output",
-            str(out),
-            str(ROOT),
-        ],
-        capture_output=True,
-        text=True,
-        timeout=1800,
-    )
-    assert result.returncode == 0, (
-        f"the book build failed (exit {result.returncode}):\n"
-        + "\n".join((result.stdout + result.stderr).splitlines()[-60:])
-    )
-    return out / "_build" / "html"
+    """The whole book built once per test run, as `make book` builds it, from a fresh
+    cache (so every cell runs) in a ROS domain of its own. Returns `_build/html`."""
+    return bookpages.build(tmp_path_factory.mktemp("book"))
