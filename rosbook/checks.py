@@ -35,6 +35,8 @@ def make_node(factory: Callable[..., T], *args: Any, **kwargs: Any) -> T:
     call = f"{getattr(factory, '__name__', factory)}({_call_args(args, kwargs)})"
     try:
         return factory(*args, **kwargs)
+    except NotImplementedError:
+        raise AssertionError(f"{call}: this task is not done yet (NotImplementedError)") from None
     except Exception as exc:  # the student's constructor failed: say how
         raise AssertionError(f"{call} raised {type(exc).__name__}: {exc} ({_where(exc)})") from None
 
@@ -320,9 +322,11 @@ class ScriptRun:
             return None
 
     def kill(self) -> None:
+        """Stop the script and everything it started; collect its output (once)."""
         if self.alive():
             os.killpg(self.proc.pid, signal.SIGKILL)
-        self.output += self.proc.communicate()[0] or ""
+        if self.proc.stdout is not None and not self.proc.stdout.closed:
+            self.output += self.proc.communicate()[0] or ""
 
 
 @contextmanager

@@ -100,3 +100,23 @@ def test_missing_script_is_named(tmp_path: Path) -> None:
     with pytest.raises(AssertionError, match="did you run the %%writefile cell"):
         with checks.run_script(tmp_path / "talker.py"):
             pass
+
+
+def test_script_that_crashes_at_start_is_reported_with_its_output(
+    session: Session, tmp_path: Path
+) -> None:
+    script = tmp_path / "talker.py"
+    script.write_text("# YOUR CODE HERE\nraise NotImplementedError()\n")
+    probe = checks.Probe("chatter", String)
+    with pytest.raises(AssertionError, match=r"(?s)exited by itself with code 1.*NotImplementedError"):
+        with checks.run_script(script) as run:
+            checks.wait_for_script_publisher(run, probe)
+
+
+def test_unfinished_constructor_says_the_task_is_not_done(session: Session) -> None:
+    class Stub(Node):
+        def __init__(self) -> None:
+            raise NotImplementedError()
+
+    with pytest.raises(AssertionError, match=r"^Stub\(\): this task is not done yet"):
+        checks.make_node(Stub)
