@@ -10,10 +10,11 @@ import pytest
 import yourdfpy
 
 from rosbook import urdf
+from rosbook.robots import DIFF_DRIVE_URDF
 from rosbook.urdf import URDFError
 
 FIXTURES = Path(__file__).parent / "fixtures" / "urdf"
-DIFF_DRIVE = FIXTURES / "diff_drive.urdf"
+DIFF_DRIVE = DIFF_DRIVE_URDF  # the lecture robot ships with rosbook
 R2D2 = FIXTURES / "r2d2.urdf"
 TURTLEBOT = FIXTURES / "turtlebot_burger.urdf"
 

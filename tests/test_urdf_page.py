@@ -10,6 +10,7 @@ from pathlib import Path
 import pytest
 
 from rosbook import bookpages, urdf
+from rosbook.robots import DIFF_DRIVE_URDF
 from rosbook.viz import VIEWER_JS
 
 CHAPTER = "book/urdf_digital_twin"
@@ -41,7 +42,7 @@ def test_every_scene_is_embedded_with_the_robots_links(page: str) -> None:
     assert len(scenes) == 6, "three build steps, the drive, r2d2 and the burger"
     paths = [{c.get("path") for c in scene} for scene in scenes]
     robots = {
-        "bot": urdf.load(FIXTURES / "diff_drive.urdf"),
+        "bot": urdf.load(DIFF_DRIVE_URDF),
         "visual": urdf.load(FIXTURES / "r2d2.urdf"),
         "turtlebot3_burger": urdf.load(FIXTURES / "turtlebot_burger.urdf"),
     }

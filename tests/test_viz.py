@@ -17,13 +17,14 @@ import pytest
 import umsgpack
 
 from rosbook import urdf, viz
+from rosbook.robots import DIFF_DRIVE_URDF
 
 FIXTURES = Path(__file__).parent / "fixtures" / "urdf"
 
 
 @pytest.fixture(scope="module")
 def bot() -> urdf.Robot:
-    return urdf.load(FIXTURES / "diff_drive.urdf")
+    return urdf.load(DIFF_DRIVE_URDF)
 
 
 def last(commands: list[dict[str, Any]], kind: str, path: str) -> dict[str, Any]:
@@ -125,9 +126,13 @@ def test_an_animation_has_a_track_for_every_link_and_the_base(bot: urdf.Robot) -
     assert position["keys"][-1]["value"] == pytest.approx([0.09, 0.0, 0.09])  # standing
 
 
-@pytest.mark.parametrize("name", ["r2d2.urdf", "turtlebot_burger.urdf", "diff_drive.urdf"])
-def test_exported_scene_contains_every_link(name: str) -> None:
-    robot = urdf.load(FIXTURES / name)
+@pytest.mark.parametrize(
+    "path",
+    [FIXTURES / "r2d2.urdf", FIXTURES / "turtlebot_burger.urdf", DIFF_DRIVE_URDF],
+    ids=["r2d2", "turtlebot_burger", "diff_drive"],
+)
+def test_exported_scene_contains_every_link(path: Path) -> None:
+    robot = urdf.load(path)
     scene = viz.show(robot)
     for link in robot.links:
         assert f"/meshcat/{robot.name}/{link}" in scene.paths, link
