@@ -9,12 +9,12 @@ from pathlib import Path
 
 import pytest
 
-from rosbook import bookpages, urdf
+from rosbook import bookpages, robots, urdf
 from rosbook.robots import DIFF_DRIVE_URDF
 from rosbook.viz import VIEWER_JS
 
 CHAPTER = "book/urdf_digital_twin"
-FIXTURES = Path(__file__).parent / "fixtures" / "urdf"
+ROBOTS = robots.FOLDER  # the example robots ship with rosbook
 
 
 @pytest.fixture(scope="module")
@@ -43,8 +43,8 @@ def test_every_scene_is_embedded_with_the_robots_links(page: str) -> None:
     paths = [{c.get("path") for c in scene} for scene in scenes]
     robots = {
         "bot": urdf.load(DIFF_DRIVE_URDF),
-        "visual": urdf.load(FIXTURES / "r2d2.urdf"),
-        "turtlebot3_burger": urdf.load(FIXTURES / "turtlebot_burger.urdf"),
+        "visual": urdf.load(ROBOTS / "r2d2.urdf"),
+        "turtlebot3_burger": urdf.load(ROBOTS / "turtlebot_burger.urdf"),
     }
     # The complete robots (scene 3 onwards) have a node for every link.
     for scene_paths in paths[2:]:
