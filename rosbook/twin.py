@@ -177,20 +177,21 @@ class Twin:
 def record(
     run: Simulation | DiffDriveSim,
     fps: float = DEFAULT_FPS,
-    since: float = 0.0,
     world: World | None = None,
     height: int = 400,
     camera: Sequence[float] | None = DEFAULT_CAMERA,
-    repetitions: int = 1,
+    repetitions: int = 1000,
 ) -> Scene:
     """A run's recorded twin: its world and the URDF robot replaying the drive.
 
-    ``since`` skips the first simulated seconds; ``world`` defaults to the run's.
+    ``world`` (the walls and boxes drawn) defaults to the run's. The drive plays in a
+    loop (``repetitions`` times), so a reader who scrolls to it late still sees it move.
+    The last frame is the run's end, so the twin stops where the simulator stopped.
     """
     physics = physics_of(run)
-    frames = [f for f in physics.twin_frames(1.0 / fps) if f.t >= since - 1e-9]
+    frames = physics.twin_frames(1.0 / fps)
     last = current_frame(physics)
-    if frames[-1].t < last.t - 1e-9:
+    if not frames or frames[-1].t < last.t - 1e-9:
         frames.append(last)  # end exactly where the run ended
     twin = Twin(world=world if world is not None else physics.world, camera=camera)
     twin.record(frames, fps=fps, repetitions=repetitions)

@@ -91,6 +91,7 @@ def test_recorded_twin_animates_every_frame_and_draws_the_world(bot) -> None:
     (animation,) = [c for c in commands if c["type"] == "set_animation"]
     paths = {a["path"] for a in animation["animations"]}
     assert paths == {f"/meshcat/bot{p}" for p in ("", "/left_wheel", "/right_wheel")}
+    assert animation["options"]["repetitions"] == 1000, "a recorded drive plays in a loop"
     base = next(a for a in animation["animations"] if a["path"] == "/meshcat/bot")
     keys = base["clip"]["tracks"][0]["keys"]
     assert len(keys) == int(sim.time * 10) + 1 and base["clip"]["fps"] == 10
