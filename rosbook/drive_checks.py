@@ -3,8 +3,9 @@
 Every run is headless and on simulated time (the simulator publishes ``/clock`` and
 steps in lockstep with the student's node), so it is exact, repeatable and bounded:
 a node that never stops still ends when the simulated seconds are up. Failures are
-``AssertionError`` messages that name the likely mistake; the path plot goes into the
-cell's output so the feedback shows what the robot did.
+``AssertionError`` messages that name the likely mistake; the path plot (and, once per
+lab, the recorded 3D twin) goes into the cell's output so the feedback shows what the
+robot did.
 """
 
 from __future__ import annotations
@@ -93,6 +94,24 @@ def show_path(
 
     fig = plot_path(run.trajectory, run.world, title=title, goal=goal, marks=marks, size=3.2)
     display(Image(png(fig, dpi=60)))
+
+
+#: Frames per simulated second of the twin shown in the feedback (small and smooth enough).
+TWIN_FPS = 10
+
+
+def show_twin(run: DriveRun, height: int = 320) -> None:
+    """Display the run's recorded 3D twin (the URDF robot replaying the drive).
+
+    Outside the book a scene carries its own copy of the MeshCat viewer (about 1 MB of
+    JavaScript), so a lab shows the twin once, for one run; the path plots show the rest.
+    It renders in JupyterLab and in nbgrader's feedback page (a self-contained iframe).
+    """
+    from IPython.display import display
+
+    from rosbook import twin
+
+    display(twin.record(run.sim, fps=TWIN_FPS, height=height))
 
 
 # -- kinematics ------------------------------------------------------------------------

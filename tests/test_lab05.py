@@ -3,11 +3,14 @@
 from __future__ import annotations
 
 import base64
+import html
+import math
 import re
 from pathlib import Path
 
 import pytest
 
+from rosbook import bookpages, twin
 from tests.labtools import answered, feedback, grade, replace_in_answer, submit
 
 LAB = "lab05_diff_drive"
@@ -87,6 +90,17 @@ def test_solution_scores_full_marks_and_its_feedback_shows_the_paths(graded) -> 
     # two runs of each driving check, visible and hidden (three for go_to_goal)
     assert len(images) >= 5
     assert all(base64.b64decode(img).startswith(b"\x89PNG") for img in images)
+
+
+def test_feedback_shows_the_go_to_goal_runs_3d_twin_once(graded) -> None:
+    frames = re.findall(r'<iframe srcdoc="([^"]*)"', page(graded, "right"))
+    assert len(frames) == 1, "one recorded twin (with its own viewer copy) per feedback page"
+    inner = html.unescape(frames[0])
+    assert "MeshCat" in inner and len(inner) < 1_300_000
+    (commands,) = bookpages.scene_commands(inner)
+    assert any(c["type"] == "set_animation" for c in commands)
+    end = twin.axle_pose(twin.final_poses(commands, "bot"))
+    assert math.hypot(end.x - 1.5, end.y - 1.0) < 0.05, f"the twin ends at {end}, not the goal"
 
 
 def test_swapped_wheels_are_named(graded) -> None:

@@ -9,13 +9,14 @@ import numpy as np
 import pytest
 import yourdfpy
 
-from rosbook import urdf
+from rosbook import robots, urdf
+from rosbook.robots import DIFF_DRIVE_URDF
 from rosbook.urdf import URDFError
 
-FIXTURES = Path(__file__).parent / "fixtures" / "urdf"
-DIFF_DRIVE = FIXTURES / "diff_drive.urdf"
-R2D2 = FIXTURES / "r2d2.urdf"
-TURTLEBOT = FIXTURES / "turtlebot_burger.urdf"
+ROBOTS = robots.FOLDER  # the example robots ship with rosbook
+DIFF_DRIVE = DIFF_DRIVE_URDF  # the lecture robot ships with rosbook
+R2D2 = ROBOTS / "r2d2.urdf"
+TURTLEBOT = ROBOTS / "turtlebot_burger.urdf"
 
 ARM = """<robot name="arm">
   <link name="base_link"/>

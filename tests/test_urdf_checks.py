@@ -2,13 +2,12 @@
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import pytest
 
 from rosbook import urdf_checks
+from rosbook.robots import DIFF_DRIVE_URDF
 
-GOOD = (Path(__file__).parent / "fixtures" / "urdf" / "diff_drive.urdf").read_text()
+GOOD = DIFF_DRIVE_URDF.read_text()
 
 
 def check_all(xml: str) -> None:

@@ -9,11 +9,12 @@ from pathlib import Path
 
 import pytest
 
-from rosbook import bookpages, urdf
+from rosbook import bookpages, robots, urdf
+from rosbook.robots import DIFF_DRIVE_URDF
 from rosbook.viz import VIEWER_JS
 
 CHAPTER = "book/urdf_digital_twin"
-FIXTURES = Path(__file__).parent / "fixtures" / "urdf"
+ROBOTS = robots.FOLDER  # the example robots ship with rosbook
 
 
 @pytest.fixture(scope="module")
@@ -41,9 +42,9 @@ def test_every_scene_is_embedded_with_the_robots_links(page: str) -> None:
     assert len(scenes) == 6, "three build steps, the drive, r2d2 and the burger"
     paths = [{c.get("path") for c in scene} for scene in scenes]
     robots = {
-        "bot": urdf.load(FIXTURES / "diff_drive.urdf"),
-        "visual": urdf.load(FIXTURES / "r2d2.urdf"),
-        "turtlebot3_burger": urdf.load(FIXTURES / "turtlebot_burger.urdf"),
+        "bot": urdf.load(DIFF_DRIVE_URDF),
+        "visual": urdf.load(ROBOTS / "r2d2.urdf"),
+        "turtlebot3_burger": urdf.load(ROBOTS / "turtlebot_burger.urdf"),
     }
     # The complete robots (scene 3 onwards) have a node for every link.
     for scene_paths in paths[2:]:

@@ -16,14 +16,15 @@ import numpy as np
 import pytest
 import umsgpack
 
-from rosbook import urdf, viz
+from rosbook import robots, urdf, viz
+from rosbook.robots import DIFF_DRIVE_URDF
 
-FIXTURES = Path(__file__).parent / "fixtures" / "urdf"
+ROBOTS = robots.FOLDER  # the example robots ship with rosbook
 
 
 @pytest.fixture(scope="module")
 def bot() -> urdf.Robot:
-    return urdf.load(FIXTURES / "diff_drive.urdf")
+    return urdf.load(DIFF_DRIVE_URDF)
 
 
 def last(commands: list[dict[str, Any]], kind: str, path: str) -> dict[str, Any]:
@@ -57,7 +58,7 @@ def test_every_visual_is_drawn_with_its_shape_and_colour(bot: urdf.Robot) -> Non
 
 
 def test_named_materials_are_looked_up_in_the_robot() -> None:
-    r2d2 = urdf.load(FIXTURES / "r2d2.urdf")
+    r2d2 = urdf.load(ROBOTS / "r2d2.urdf")
     commands = viz.RobotView(r2d2).scene().commands
     base = last(commands, "set_object", "/meshcat/visual/base_link/visual_0")
     assert base["object"]["materials"][0]["color"] == 0x0000CC
@@ -125,9 +126,13 @@ def test_an_animation_has_a_track_for_every_link_and_the_base(bot: urdf.Robot) -
     assert position["keys"][-1]["value"] == pytest.approx([0.09, 0.0, 0.09])  # standing
 
 
-@pytest.mark.parametrize("name", ["r2d2.urdf", "turtlebot_burger.urdf", "diff_drive.urdf"])
-def test_exported_scene_contains_every_link(name: str) -> None:
-    robot = urdf.load(FIXTURES / name)
+@pytest.mark.parametrize(
+    "path",
+    [ROBOTS / "r2d2.urdf", ROBOTS / "turtlebot_burger.urdf", DIFF_DRIVE_URDF],
+    ids=["r2d2", "turtlebot_burger", "diff_drive"],
+)
+def test_exported_scene_contains_every_link(path: Path) -> None:
+    robot = urdf.load(path)
     scene = viz.show(robot)
     for link in robot.links:
         assert f"/meshcat/{robot.name}/{link}" in scene.paths, link
@@ -141,7 +146,7 @@ def test_exported_scene_contains_every_link(name: str) -> None:
 
 
 def test_meshes_are_drawn_as_triangles_scaled_by_the_urdf() -> None:
-    burger = urdf.load(FIXTURES / "turtlebot_burger.urdf")
+    burger = urdf.load(ROBOTS / "turtlebot_burger.urdf")
     commands = viz.RobotView(burger).scene().commands
     lds = last(commands, "set_object", "/meshcat/turtlebot3_burger/base_scan/visual_0")
     geometry = lds["object"]["geometries"][0]

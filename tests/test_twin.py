@@ -1,0 +1,162 @@
+"""rosbook.twin: the URDF robot in MeshCat follows the simulator, recorded or live."""
+
+from __future__ import annotations
+
+import base64
+import math
+import re
+import time
+
+import numpy as np
+import pytest
+import umsgpack
+from geometry_msgs.msg import Twist
+from rclpy.node import Node
+
+from rosbook import robots, twin, viz
+from rosbook.session import Session
+from rosbook.sim import DiffDriveSim, RobotGeometry, World
+from rosbook.sim_node import Simulation, yaw_of
+
+
+@pytest.fixture(scope="module")
+def bot():
+    return robots.diff_drive()
+
+
+def decoded(scene: viz.Scene) -> list[dict]:
+    """The scene's commands as the viewer receives them (msgpack round trip)."""
+    return [umsgpack.unpackb(packed) for packed in scene.packed]
+
+
+def drive_arc() -> DiffDriveSim:
+    """Straight, a left arc, a right turn on the spot, backwards: every sign of motion."""
+    sim = DiffDriveSim(World(arena=(-3.0, -3.0, 3.0, 3.0)))
+    for v, w, seconds in [(0.3, 0.0, 2.0), (0.25, 0.6, 3.0), (0.0, -1.0, 1.3), (-0.2, 0.0, 1.0)]:
+        sim.command(v, w)
+        sim.run(seconds)
+    return sim
+
+
+def test_the_packaged_urdf_has_the_simulators_dimensions(bot) -> None:
+    geometry = RobotGeometry()
+    left = bot.position("left_wheel")
+    right = bot.position("right_wheel")
+    assert left[1] - right[1] == pytest.approx(geometry.wheel_separation)
+    assert left[0] == pytest.approx(geometry.axle_offset) == right[0]
+    wheel = bot.model.robot.links[bot.links.index("left_wheel")].visuals[0].geometry
+    assert float(wheel.cylinder.radius) == pytest.approx(geometry.wheel_radius)
+    assert robots.DIFF_DRIVE_URDF.is_file() and robots.DIFF_DRIVE_URDF.parent.name == "robots"
+
+
+def test_a_positive_wheel_angle_rolls_the_urdf_wheel_forwards(bot) -> None:
+    """Driving 0.1 m forwards turns each wheel by +0.1 / r; in the URDF that angle turns
+    the wheel's top forwards (and its bottom backwards): it rolls towards +x."""
+    sim = DiffDriveSim()
+    sim.command(0.1, 0.0)
+    sim.run(1.0)
+    frame = twin.current_frame(sim)
+    r = sim.geometry.wheel_radius
+    assert frame.left_wheel == pytest.approx(0.1 / r) == frame.right_wheel
+    for joint in robots.WHEEL_JOINTS:
+        link = bot.joint(joint).child
+        still, turned = bot.pose(link), bot.poses(twin.joint_positions(frame))[link]
+        top = still[:3, 3] + [0.0, 0.0, r]  # the rim point on top of the wheel, at rest
+        in_wheel = np.linalg.inv(still) @ np.append(top, 1.0)
+        moved = (turned @ in_wheel)[:3] - turned[:3, 3]
+        a = 0.1 / r
+        np.testing.assert_allclose(moved, [r * math.sin(a), 0.0, r * math.cos(a)], atol=1e-6)
+
+
+def test_recorded_twin_ends_at_the_simulators_final_pose(bot) -> None:
+    sim = drive_arc()
+    scene = twin.record(sim, fps=15)
+    poses = twin.final_poses(decoded(scene), bot.name)
+    assert set(poses) == set(bot.links)
+    end = twin.axle_pose(poses)
+    pose = sim.pose
+    assert (end.x, end.y) == pytest.approx((pose.x, pose.y), abs=1e-9)
+    assert math.remainder(end.yaw - pose.yaw, 2 * math.pi) == pytest.approx(0.0, abs=1e-9)
+    # and the wheels are turned by the simulator's final angles
+    left, right = sim.wheel_angles
+    for link, angle in (("left_wheel", left), ("right_wheel", right)):
+        relative = np.linalg.inv(poses["base_link"]) @ poses[link]
+        expected = bot.poses({robots.LEFT_WHEEL_JOINT: left, robots.RIGHT_WHEEL_JOINT: right})[link]
+        np.testing.assert_allclose(relative, expected, atol=1e-9, err_msg=f"{link} at {angle}")
+
+
+def test_recorded_twin_animates_every_frame_and_draws_the_world(bot) -> None:
+    sim = drive_arc()
+    commands = decoded(twin.record(sim, fps=10))
+    (animation,) = [c for c in commands if c["type"] == "set_animation"]
+    paths = {a["path"] for a in animation["animations"]}
+    assert paths == {f"/meshcat/bot{p}" for p in ("", "/left_wheel", "/right_wheel")}
+    assert animation["options"]["repetitions"] == 1000, "a recorded drive plays in a loop"
+    base = next(a for a in animation["animations"] if a["path"] == "/meshcat/bot")
+    keys = base["clip"]["tracks"][0]["keys"]
+    assert len(keys) == int(sim.time * 10) + 1 and base["clip"]["fps"] == 10
+    # the first frame: the start pose, box centre 0.2 m behind the axle, standing
+    assert keys[0]["value"] == pytest.approx([-0.2, 0.0, 0.09])
+    walls = [c for c in commands if c["type"] == "set_object" and "/meshcat/world/" in c["path"]]
+    assert len(walls) == 4, "the arena's four walls"
+
+
+def test_a_recorded_drive_stays_small_at_book_frame_rates() -> None:
+    sim = DiffDriveSim()
+    sim.command(0.25, 0.3)
+    sim.run(26.0)
+    scene = twin.record(sim)  # 15 frames per simulated second
+    assert scene.nbytes() < 200_000, scene
+
+
+def test_following_a_ros_simulation_ends_at_its_odom_pose(session: Session, bot) -> None:
+    sim = Simulation(World())
+
+    class Arc(Node):
+        def __init__(self) -> None:
+            super().__init__("arc")
+            self.pub = self.create_publisher(Twist, "cmd_vel", 10)
+            self.timer = self.create_timer(0.02, self.on_timer)
+
+        def on_timer(self) -> None:
+            cmd = Twist()
+            cmd.linear.x, cmd.angular.z = 0.3, 0.8
+            self.pub.publish(cmd)
+
+    Arc()
+    followed = twin.Twin()
+    stopped = followed.follow(sim, 3.0, fps=20, realtime=False, until=lambda: sim.now >= 2.0)
+    assert stopped and sim.now == pytest.approx(2.0)
+    odom = sim.node.odometry()
+    poses = twin.final_poses(followed.view.vis.window.commands, bot.name)
+    end = twin.axle_pose(poses)
+    position = odom.pose.pose.position
+    assert (end.x, end.y) == pytest.approx((position.x, position.y), abs=1e-9)
+    assert end.yaw == pytest.approx(yaw_of(odom), abs=1e-9)
+    assert position.y > 0.3, "the robot should have driven a left arc"
+
+
+def test_follow_moves_a_live_view_in_real_time_and_its_server_stops(bot) -> None:
+    vis = viz.live_visualizer()
+    proc = vis.window.server_proc
+    try:
+        live = twin.Twin(vis=vis, world=World())
+        sim = DiffDriveSim()
+        sim.command(0.4, 0.0)
+        started = time.perf_counter()
+        live.follow(sim, 0.5, fps=20)
+        took = time.perf_counter() - started
+        assert 0.45 < took < 3.0, f"0.5 simulated seconds took {took:.2f} s in real time"
+        # What the server holds (and a browser opening the view gets): the robot where the
+        # simulator is, in its world.
+        served = [
+            umsgpack.unpackb(base64.b64decode(blob))
+            for blob in re.findall(r"octet-binary;base64,([^\"]+)", vis.static_html())
+        ]
+        end = twin.axle_pose(twin.final_poses(served, bot.name))
+        assert (end.x, end.y, end.yaw) == pytest.approx((0.2, 0.0, 0.0), abs=1e-9)
+        assert sim.pose.x == pytest.approx(0.2)
+        assert any(c.get("path", "").startswith("/meshcat/world/wall") for c in served)
+    finally:
+        viz.close_live(vis)
+    assert proc.poll() is not None, "the MeshCat server process is still running"
