@@ -334,7 +334,11 @@ class Launch:
             self.wait()
         except KeyboardInterrupt:
             self._say("[WARNING] [launch]: user interrupted with ctrl-c (SIGINT)")
-            self.shutdown()
+            try:
+                self.shutdown()
+            except KeyboardInterrupt:  # a second Ctrl-C: no more waiting
+                self._say("[WARNING] [launch]: second ctrl-c: killing every process")
+                self.shutdown(sigterm_timeout=0.0, sigkill_timeout=0.0)
         self._drain()
         return 0 if all(p.returncode == 0 for p in self.processes) else 1
 
