@@ -320,13 +320,11 @@ def assert_runs(
 # -- task 2: two robots, launched and inspected ------------------------------------------
 
 
-@cache
-def reference_workspace() -> Workspace:
-    """``robot_talk`` built once per process with a manifest made by ``ros2 pkg create``."""
-    ws = Workspace.scratch("lab06_ref_")
+def add_reference_package(src: str | Path) -> Path:
+    """``robot_talk`` in ``src`` with a manifest made by ``ros2 pkg create`` (+ entry points)."""
     root = create_package(
         PACKAGE,
-        ws.src,
+        src,
         dependencies=DEPENDENCIES,
         version=VERSION,
         license="Apache-2.0",
@@ -335,7 +333,7 @@ def reference_workspace() -> Workspace:
         description="A talker and a listener",
         log=None,
     )
-    write_layout(ws.src)
+    write_layout(src)
     setup = (root / "setup.py").read_text()
     entries = "".join(f"\n            '{n} = {target}'," for n, target in EXECUTABLES.items())
     setup = setup.replace("'console_scripts': [", "'console_scripts': [" + entries)
@@ -345,6 +343,14 @@ def reference_workspace() -> Workspace:
         "        ('share/' + package_name + '/launch', glob('launch/*.launch.py')),",
     )
     (root / "setup.py").write_text("from glob import glob\n" + setup)
+    return root
+
+
+@cache
+def reference_workspace() -> Workspace:
+    """A workspace with the reference ``robot_talk``, built once per process."""
+    ws = Workspace.scratch("lab06_ref_")
+    add_reference_package(ws.src)
     run = ws.build()
     if not run.ok:
         raise RuntimeError(f"the reference robot_talk did not build:\n{run.output}")
