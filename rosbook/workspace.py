@@ -468,3 +468,34 @@ def tree(root: str | os.PathLike[str], skip: Iterable[str] = ("__pycache__",)) -
 
     walk(root, "")
     return "\n".join(lines)
+
+
+def sh(
+    command: str,
+    cwd: str | os.PathLike[str],
+    *,
+    env: Mapping[str, str] | None = None,
+    timeout: float = 120,
+    echo: bool = True,
+) -> subprocess.CompletedProcess[str]:
+    """Run ``command`` in bash, as typed in a terminal, and print ``$ command`` and its output.
+
+    The venv's ``bin/`` (``colcon``, ``ros2``) comes first on ``PATH``, as it would in a
+    terminal where the venv is active; stdout and stderr are merged as a terminal shows them.
+    """
+    run_env = dict(os.environ if env is None else env)
+    run_env["PATH"] = f"{Path(sys.executable).parent}{os.pathsep}{run_env.get('PATH', '')}"
+    done = subprocess.run(
+        ["bash", "-c", command],
+        cwd=cwd,
+        env=run_env,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+        text=True,
+        timeout=timeout,
+        check=False,
+    )
+    if echo:
+        print(f"$ {command}")
+        print(done.stdout, end="")
+    return done
