@@ -194,3 +194,14 @@ def test_sourcing_runs_the_scripts_in_bash_in_order(tmp_path: Path) -> None:
     assert env["ORDER"] == "ab"
     with pytest.raises(RuntimeError, match="sourcing"):
         sourced_environ(tmp_path / "missing", base={"PATH": os.environ["PATH"]})
+
+
+def test_ros2_pkg_list_and_prefix_read_the_ament_index(built: Workspace) -> None:
+    env = built.environ()
+    listed = subprocess.run([*ROS2, "pkg", "list"], env=env, capture_output=True, text=True)
+    names = listed.stdout.split()
+    assert {"demo_pkg", "rclpy", "std_msgs"} <= set(names) and names == sorted(names)
+    prefix = subprocess.run(
+        [*ROS2, "pkg", "prefix", "demo_pkg"], env=env, capture_output=True, text=True
+    )
+    assert prefix.stdout.strip() == str(built.install / "demo_pkg")
