@@ -294,3 +294,25 @@ def test_ros2_launch_names_a_missing_launch_file(env: dict[str, str]) -> None:
     )
     assert done.returncode == 1
     assert "file 'nope.launch.py' was not found in the share directory" in done.stderr
+
+
+def test_ros2_run_and_its_node_stop_on_one_ctrl_c(env: dict[str, str]) -> None:
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "rosbook.cli", "run", "robot_talk", "talker"],
+        env=env,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+        text=True,
+        start_new_session=True,  # a terminal of its own: Ctrl-C goes to its group
+    )
+    assert proc.stdout is not None
+    watchdog = threading.Timer(30.0, os.killpg, (proc.pid, signal.SIGKILL))
+    watchdog.start()
+    first = proc.stdout.readline()
+    watchdog.cancel()
+    children = Path(f"/proc/{proc.pid}/task/{proc.pid}/children").read_text().split()
+    os.killpg(proc.pid, signal.SIGINT)
+    out, _ = proc.communicate(timeout=20)
+    assert 'Publishing: "hello 0"' in first, first + out
+    assert proc.returncode == 0 and "Traceback" not in out, out
+    assert len(children) == 1 and not alive(int(children[0]))
