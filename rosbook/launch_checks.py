@@ -9,6 +9,7 @@ simulated time. Failures are ``AssertionError``s naming the mistake.
 
 from __future__ import annotations
 
+import atexit
 import re
 import time
 from collections.abc import Callable, Iterable
@@ -155,6 +156,13 @@ class BuiltPackage:
 _builds: dict[tuple[str, str], BuiltPackage] = {}
 
 
+def _scratch(prefix: str) -> Workspace:
+    """A scratch workspace that is deleted when this process exits (graders make many)."""
+    ws = Workspace.scratch(prefix)
+    atexit.register(ws.remove)
+    return ws
+
+
 def build_package(package_xml: str, setup_py: str) -> BuiltPackage:
     """Lay out ``robot_talk`` with these manifests in a scratch workspace; colcon-build it.
 
@@ -164,7 +172,7 @@ def build_package(package_xml: str, setup_py: str) -> BuiltPackage:
     key = (package_xml, setup_py)
     if key in _builds and _builds[key].workspace.root.exists():
         return _builds[key]
-    ws = Workspace.scratch("lab06_ws_")
+    ws = _scratch("lab06_ws_")
     root = write_layout(ws.src)
     (root / "package.xml").write_text(package_xml)
     (root / "setup.py").write_text(setup_py)
@@ -360,7 +368,7 @@ def add_reference_package(src: str | Path) -> Path:
 @cache
 def reference_workspace() -> Workspace:
     """A workspace with the reference ``robot_talk``, built once per process."""
-    ws = Workspace.scratch("lab06_ref_")
+    ws = _scratch("lab06_ref_")
     add_reference_package(ws.src)
     run = ws.build()
     if not run.ok:
