@@ -468,11 +468,34 @@ def _graph_nodes(probe: Probe) -> list[str]:
     )
 
 
+def _endpoints(probe: Probe, robot: str) -> tuple[dict[str, list[str]], dict[str, list[str]]]:
+    """Topics of /robot/talker's publishers and /robot/listener's subscriptions."""
+    try:
+        published = dict(probe.node.get_publisher_names_and_types_by_node("talker", f"/{robot}"))
+        subscribed = dict(
+            probe.node.get_subscriber_names_and_types_by_node("listener", f"/{robot}")
+        )
+    except Exception:  # the node is not (yet) in the graph
+        return {}, {}
+    return published, subscribed
+
+
 def _wait_for_nodes(system: Launch, probe: Probe, expected: list[str]) -> list[str]:
-    deadline = time.monotonic() + 15.0
-    while time.monotonic() < deadline:
+    """Wait until the expected nodes and their chatter endpoints are discovered."""
+
+    def complete() -> bool:
         nodes = _graph_nodes(probe)
-        if all(n in nodes for n in expected) or not system.running():
+        if not all(n in nodes for n in expected):
+            return False
+        for robot in ROBOTS:
+            published, subscribed = _endpoints(probe, robot)
+            if f"/{robot}/chatter" not in published or f"/{robot}/chatter" not in subscribed:
+                return False
+        return True
+
+    deadline = time.monotonic() + 12.0
+    while time.monotonic() < deadline:
+        if complete() or not system.running():
             break
         ros.spin_for(0.1)
     ros.spin_for(0.3)  # duplicates and extras show up too
@@ -506,10 +529,7 @@ def _assert_graph(system: Launch, probe: Probe, nodes: list[str], expected: list
             f"expected: {extra or 'none'}.{hint}"
         )
     for robot in ROBOTS:
-        subscribed = dict(
-            probe.node.get_subscriber_names_and_types_by_node("listener", f"/{robot}")
-        )
-        published = dict(probe.node.get_publisher_names_and_types_by_node("talker", f"/{robot}"))
+        published, subscribed = _endpoints(probe, robot)
         for node, kind, found in (
             ("talker", "publish on", published),
             ("listener", "subscribe to", subscribed),

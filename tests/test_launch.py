@@ -124,11 +124,15 @@ def test_namespaces_parameters_and_remaps_reach_the_graph(
     system = launch(description, env=env, echo=None)
     started.append(system)
     one, news = Probe("/robot1/chatter", String), Probe("/robot2/news", String)
-    assert session.spin_until(
-        lambda: bool(one.received.messages and news.received.messages), timeout=15.0
-    )
-    graph = set(one.node.get_node_names_and_namespaces())
-    assert {("talker", "/robot1"), ("talker", "/robot2"), ("ear", "/robot2")} <= graph
+    wanted = {("talker", "/robot1"), ("talker", "/robot2"), ("ear", "/robot2")}
+
+    def discovered() -> bool:
+        graph = set(one.node.get_node_names_and_namespaces())
+        topics = dict(one.node.get_topic_names_and_types())
+        heard = one.received.messages and news.received.messages
+        return bool(heard) and wanted <= graph and "/robot2/chatter" in topics
+
+    assert session.spin_until(discovered, timeout=15.0)
     topics = dict(one.node.get_topic_names_and_types())
     assert "/robot2/chatter" in topics  # the listener's, not remapped
     assert one.node.count_publishers("/robot2/chatter") == 0
