@@ -1,0 +1,97 @@
+"""Lab 6 graded end to end: the usual packaging and launch mistakes get specific feedback."""
+
+from __future__ import annotations
+
+import html
+from pathlib import Path
+
+import nbformat
+import pytest
+
+from tests.labtools import answered, feedback, grade, replace_in_answer, submit
+
+LAB = "lab06_launch_system"
+
+
+def with_answers(**changes: tuple[str, str]) -> nbformat.NotebookNode:
+    """The solution with ``old -> new`` replaced in the named answers."""
+    fixes: dict[str, str] = {}
+    for gid, (old, new) in changes.items():
+        fixes.update(replace_in_answer(LAB, gid, old, new))
+    return answered(LAB, **fixes)
+
+
+@pytest.fixture(scope="module")
+def graded(tmp_path_factory: pytest.TempPathFactory) -> tuple[dict, Path]:
+    root = tmp_path_factory.mktemp("submissions")
+    submit(root, "right", LAB, answered(LAB))
+    submit(
+        root,
+        "entry_point_missing",
+        LAB,
+        with_answers(
+            package_manifest=("            'listener = robot_talk.listener:main',\n", ""),
+            two_robots=("('robot1', 2.0), ('robot2', 5.0)", "('robot1', 5.0), ('robot2', 2.0)"),
+        ),
+    )
+    submit(
+        root,
+        "version_mismatch",
+        LAB,
+        with_answers(
+            package_manifest=("version='1.0.0'", "version='0.1.0'"),
+            two_robots=("('robot1', 2.0), ('robot2', 5.0)", "('robot1', 2), ('robot2', 5)"),
+        ),
+    )
+    submit(
+        root,
+        "namespace_missing",
+        LAB,
+        with_answers(two_robots=("namespace=robot, parameters", "parameters")),
+    )
+    out = tmp_path_factory.mktemp("out")
+    rows = grade(root, out, assignment_id=LAB, workers=2)
+    return rows, out
+
+
+def result(graded: tuple[dict, Path], student: str) -> tuple[dict, str]:
+    rows, out = graded
+    return rows[(student, LAB)], html.unescape(feedback(out, student, LAB))
+
+
+def test_right_submission_scores_full_marks(graded: tuple[dict, Path]) -> None:
+    row, _ = result(graded, "right")
+    assert (row["status"], row["score"], row["max_score"]) == ("ok", "10", "10")
+
+
+def test_unregistered_entry_point_and_wrong_rates_are_named(graded: tuple[dict, Path]) -> None:
+    row, page = result(graded, "entry_point_missing")
+    assert (row["status"], row["score"]) == ("ok", "0")
+    assert "`ros2 run robot_talk listener` finds no executable 'listener'" in page
+    assert "'listener = robot_talk.listener:main'" in page and "console_scripts" in page
+    assert "/robot1/chatter carried" in page and "expected 2 Hz" in page
+
+
+def test_version_mismatch_and_int_rate_are_named(graded: tuple[dict, Path]) -> None:
+    row, page = result(graded, "version_mismatch")
+    assert (row["status"], row["score"]) == ("ok", "0")
+    assert "package.xml says version 1.0.0 but setup.py says 0.1.0" in page
+    assert "colcon builds it anyway" in page
+    assert "The rate must be a float" in page and "InvalidParameterTypeException" in page
+
+
+def test_missing_namespace_is_named_and_the_rest_scores(graded: tuple[dict, Path]) -> None:
+    row, page = result(graded, "namespace_missing")
+    assert (row["status"], row["score"]) == ("ok", "5")
+    assert (
+        "Missing: ['/robot1/talker', '/robot2/talker']; not expected: ['/talker', '/talker']"
+        in page
+    )
+    assert "runs in the root namespace '/'" in page
+
+
+def test_feedback_never_shows_hidden_tests(graded: tuple[dict, Path]) -> None:
+    for student in ("right", "entry_point_missing", "version_mismatch"):
+        _, page = result(graded, student)
+        assert "BEGIN HIDDEN TESTS" not in page
+        assert "report.assert_rates(" not in page

@@ -1,0 +1,322 @@
+"""The launcher: real node processes from a colcon-built package, started and stopped."""
+
+from __future__ import annotations
+
+import os
+import re
+import signal
+import subprocess
+import sys
+import threading
+import time
+from collections.abc import Iterator
+from pathlib import Path
+
+import pytest
+from std_msgs.msg import String
+
+from rosbook.checks import Probe
+from rosbook.launch import (
+    Launch,
+    LaunchDescription,
+    LaunchError,
+    Node,
+    SetParameter,
+    Shutdown,
+    launch,
+    load_launch_file,
+    yaml_value,
+)
+from rosbook.launch_checks import add_reference_package
+from rosbook.session import Session
+from rosbook.workspace import Workspace, create_package
+
+STUBBORN = """\
+import signal
+import time
+
+
+def main():
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # a node that does not stop on Ctrl-C
+    print('ignoring Ctrl-C', flush=True)
+    while True:
+        time.sleep(0.1)
+"""
+
+
+@pytest.fixture(scope="module")
+def env(tmp_path_factory: pytest.TempPathFactory) -> dict[str, str]:
+    """robot_talk (talker with a rate parameter, listener) and a stubborn node, one build."""
+    ws = Workspace(tmp_path_factory.mktemp("ws"))
+    add_reference_package(ws.src)
+    root = create_package(
+        "stubborn", ws.src, node_name="stubborn", maintainer_email="a@example.com", log=None
+    )
+    (root / "stubborn" / "stubborn.py").write_text(STUBBORN)
+    run = ws.build()
+    assert run.ok, run.output
+    return ws.environ()
+
+
+def alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    return Path(f"/proc/{pid}/stat").read_text().split()[2] != "Z"
+
+
+@pytest.fixture
+def started() -> Iterator[list[Launch]]:
+    """Launches a test starts; after it, none of their processes may be left."""
+    systems: list[Launch] = []
+    yield systems
+    for system in systems:
+        system.shutdown(sigterm_timeout=2.0, sigkill_timeout=1.0)
+        assert not [p.pid for p in system.processes if alive(p.pid)]
+
+
+def talker(ns: str, rate: float = 5.0, **extra: object) -> Node:
+    return Node(
+        package="robot_talk",
+        executable="talker",
+        name="talker",
+        namespace=ns,
+        parameters=[{"rate": rate}],
+        output="screen",
+        **extra,  # type: ignore[arg-type]
+    )
+
+
+def test_command_line_carries_name_namespace_parameters_and_remaps() -> None:
+    node = Node(
+        package="p",
+        executable="e",
+        name="driver",
+        namespace="robot1",
+        parameters=[{"rate": 2.0, "label": "left", "ids": [1, 2], "pid": {"kp": 1}}],
+        remappings=[("chatter", "news")],
+        arguments=["--verbose"],
+    )
+    assert node.command("/x/lib/p/e", {"use_sim_time": True}) == [
+        "/x/lib/p/e",
+        "--verbose",
+        "--ros-args",
+        *("-r", "__node:=driver", "-r", "__ns:=/robot1"),
+        *("-p", "use_sim_time:=true"),
+        *("-p", "rate:=2.0", "-p", 'label:="left"', "-p", "ids:=[1, 2]", "-p", "pid.kp:=1"),
+        *("-r", "chatter:=news"),
+    ]
+    assert Node(package="p", executable="e").command("/e") == ["/e"]
+    assert yaml_value(False) == "false" and yaml_value(3) == "3"
+
+
+def test_namespaces_parameters_and_remaps_reach_the_graph(
+    env: dict[str, str], session: Session, started: list[Launch]
+) -> None:
+    description = LaunchDescription(
+        [
+            talker("robot1", rate=10.0),
+            talker("robot2", rate=10.0, remappings=[("chatter", "news")]),
+            Node(package="robot_talk", executable="listener", name="ear", namespace="robot2"),
+        ]
+    )
+    system = launch(description, env=env, echo=None)
+    started.append(system)
+    one, news = Probe("/robot1/chatter", String), Probe("/robot2/news", String)
+    wanted = {("talker", "/robot1"), ("talker", "/robot2"), ("ear", "/robot2")}
+
+    def discovered() -> bool:
+        graph = set(one.node.get_node_names_and_namespaces())
+        topics = dict(one.node.get_topic_names_and_types())
+        heard = one.received.messages and news.received.messages
+        return bool(heard) and wanted <= graph and "/robot2/chatter" in topics
+
+    assert session.spin_until(discovered, timeout=15.0)
+    topics = dict(one.node.get_topic_names_and_types())
+    assert "/robot2/chatter" in topics  # the listener's, not remapped
+    assert one.node.count_publishers("/robot2/chatter") == 0
+    assert "/chatter" not in topics
+
+
+def test_output_is_merged_and_prefixed_by_process_name(
+    env: dict[str, str], started: list[Launch]
+) -> None:
+    system = launch(LaunchDescription([talker("robot1"), talker("robot2")]), env=env, echo=None)
+    started.append(system)
+    deadline = time.monotonic() + 15.0
+    while time.monotonic() < deadline and not all(
+        any(line.startswith(f"[talker-{k}] [INFO]") for line in system.output) for k in (1, 2)
+    ):
+        system.pump(0.2)
+    pids = [p.pid for p in system.processes]
+    assert system.output[:2] == [
+        f"[INFO] [talker-1]: process started with pid [{pids[0]}]",
+        f"[INFO] [talker-2]: process started with pid [{pids[1]}]",
+    ]
+    pattern = re.compile(r"^\[talker-(\d)\] \[INFO\] \[[\d.]+\] \[robot(\d)\.talker\]: Publishing")
+    pairs = {m.groups() for m in map(pattern.match, system.output) if m}
+    assert pairs == {("1", "1"), ("2", "2")}
+
+
+def test_one_ctrl_c_stops_every_process_cleanly(env: dict[str, str], started: list[Launch]) -> None:
+    system = launch(LaunchDescription([talker("a"), talker("b"), talker("c")]), env=env, echo=None)
+    started.append(system)
+    system.pump(2.0)
+    assert len(system.running()) == 3
+    codes = system.shutdown()
+    assert codes == {"talker-1": 0, "talker-2": 0, "talker-3": 0}
+    assert not any(alive(p.pid) for p in system.processes)
+    assert "[INFO] [talker-3]: process has finished cleanly" in "\n".join(system.output)
+
+
+def test_crashed_child_with_on_exit_shutdown_stops_the_rest(
+    env: dict[str, str], started: list[Launch]
+) -> None:
+    # an int rate for a float parameter: the node dies with InvalidParameterTypeException
+    crasher = Node(
+        package="robot_talk",
+        executable="talker",
+        namespace="bad",
+        parameters=[{"rate": 5}],
+        on_exit=Shutdown(),
+    )
+    system = launch(LaunchDescription([talker("good"), crasher]), env=env, echo=None)
+    started.append(system)
+    assert system.wait(timeout=20.0), "the launch did not shut down after the crash"
+    assert system.processes[1].returncode not in (0, None)
+    # stopped by SIGINT (cleanly once spinning; still importing, it dies of the signal)
+    assert system.processes[0].returncode in (0, -signal.SIGINT)
+    text = "\n".join(system.output)
+    assert "[ERROR] [talker-2]: process has died" in text
+    assert "InvalidParameterTypeException" in text
+
+
+def test_crashed_child_without_on_exit_leaves_the_others_running(
+    env: dict[str, str], started: list[Launch]
+) -> None:
+    crasher = Node(package="robot_talk", executable="talker", parameters=[{"rate": 5}])
+    system = launch(LaunchDescription([talker("good"), crasher]), env=env, echo=None)
+    started.append(system)
+    deadline = time.monotonic() + 15.0
+    while system.processes[1].alive() and time.monotonic() < deadline:
+        system.pump(0.1)
+    system.pump(0.5)
+    assert not system.processes[1].alive() and system.processes[0].alive()
+
+
+def test_a_node_ignoring_ctrl_c_is_escalated_to_sigterm(
+    env: dict[str, str], started: list[Launch]
+) -> None:
+    node = Node(package="stubborn", executable="stubborn", output="screen", sigterm_timeout=1.0)
+    system = launch(LaunchDescription([node]), env=env, echo=None)
+    started.append(system)
+    deadline = time.monotonic() + 15.0
+    while not any("ignoring Ctrl-C" in line for line in system.output):
+        assert time.monotonic() < deadline, system.output
+        system.pump(0.1)
+    codes = system.shutdown()
+    assert codes == {"stubborn-1": -signal.SIGTERM}
+    assert "[WARNING] [stubborn-1]: still running: sending SIGTERM" in system.output
+
+
+def test_unknown_package_or_executable_is_named_before_anything_starts(
+    env: dict[str, str],
+) -> None:
+    good = talker("robot1")
+    with pytest.raises(LaunchError, match="Package 'no_such_pkg' not found"):
+        Launch(LaunchDescription([good, Node(package="no_such_pkg", executable="x")]), env=env)
+    with pytest.raises(LaunchError, match="No executable 'speaker' found in package 'robot_talk'"):
+        launch(LaunchDescription([good, Node(package="robot_talk", executable="speaker")]), env=env)
+    with pytest.raises(LaunchError, match="expected a LaunchDescription"):
+        Launch([good], env=env)  # type: ignore[arg-type]
+
+
+def test_set_parameter_applies_to_every_later_node(env: dict[str, str]) -> None:
+    system = Launch(
+        LaunchDescription([talker("a"), SetParameter("use_sim_time", True), talker("b")]),
+        env=env,
+    )
+    first, second = (cmd for _, cmd in system._plan)
+    assert "use_sim_time:=true" not in first and "use_sim_time:=true" in second
+
+
+LAUNCH_FILE = """\
+from rosbook.launch import LaunchDescription, Node
+
+
+def generate_launch_description():
+    return LaunchDescription([
+        Node(package='robot_talk', executable='talker', name='talker', namespace='robot1',
+             parameters=[{'rate': 5.0}], output='screen'),
+        Node(package='robot_talk', executable='listener', name='listener', namespace='robot1',
+             output='screen'),
+    ])
+"""
+
+
+def test_ros2_launch_runs_an_installed_launch_file_and_stops_on_one_ctrl_c(
+    env: dict[str, str], tmp_path: Path
+) -> None:
+    path = tmp_path / "pair.launch.py"
+    path.write_text(LAUNCH_FILE)
+    assert [n.namespace for n in load_launch_file(path).entities] == ["robot1", "robot1"]
+    for argv in (["robot_talk", "talk.launch.py"], [str(path)]):
+        proc = subprocess.Popen(
+            [sys.executable, "-m", "rosbook.cli", "launch", *argv],
+            env=env,
+            stdout=subprocess.PIPE,
+            stderr=subprocess.STDOUT,
+            text=True,
+            start_new_session=True,  # a terminal of its own: Ctrl-C goes to its group
+        )
+        lines: list[str] = []
+        assert proc.stdout is not None
+        watchdog = threading.Timer(30.0, os.killpg, (proc.pid, signal.SIGKILL))
+        watchdog.start()
+        for line in proc.stdout:
+            lines.append(line)
+            if "I heard" in line:
+                break
+        watchdog.cancel()
+        os.killpg(proc.pid, signal.SIGINT)
+        out, _ = proc.communicate(timeout=20)
+        text = "".join(lines) + out
+        pids = [int(p) for p in re.findall(r"process started with pid \[(\d+)\]", text)]
+        assert proc.returncode == 0, text
+        assert len(pids) == 2 and not any(alive(pid) for pid in pids), text
+        assert "user interrupted with ctrl-c (SIGINT)" in text
+        assert text.count("process has finished cleanly") == 2, text
+
+
+def test_ros2_launch_names_a_missing_launch_file(env: dict[str, str]) -> None:
+    done = subprocess.run(
+        [sys.executable, "-m", "rosbook.cli", "launch", "robot_talk", "nope.launch.py"],
+        env=env,
+        capture_output=True,
+        text=True,
+    )
+    assert done.returncode == 1
+    assert "file 'nope.launch.py' was not found in the share directory" in done.stderr
+
+
+def test_ros2_run_and_its_node_stop_on_one_ctrl_c(env: dict[str, str]) -> None:
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "rosbook.cli", "run", "robot_talk", "talker"],
+        env=env,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+        text=True,
+        start_new_session=True,  # a terminal of its own: Ctrl-C goes to its group
+    )
+    assert proc.stdout is not None
+    watchdog = threading.Timer(30.0, os.killpg, (proc.pid, signal.SIGKILL))
+    watchdog.start()
+    first = proc.stdout.readline()
+    watchdog.cancel()
+    children = Path(f"/proc/{proc.pid}/task/{proc.pid}/children").read_text().split()
+    os.killpg(proc.pid, signal.SIGINT)
+    out, _ = proc.communicate(timeout=20)
+    assert 'Publishing: "hello 0"' in first, first + out
+    assert proc.returncode == 0 and "Traceback" not in out, out
+    assert len(children) == 1 and not alive(int(children[0]))
