@@ -108,7 +108,8 @@ def test_script_that_crashes_at_start_is_reported_with_its_output(
     script = tmp_path / "talker.py"
     script.write_text("# YOUR CODE HERE\nraise NotImplementedError()\n")
     probe = checks.Probe("chatter", String)
-    with pytest.raises(AssertionError, match=r"(?s)exited by itself with code 1.*NotImplementedError"):
+    died = r"(?s)exited by itself with code 1.*NotImplementedError"
+    with pytest.raises(AssertionError, match=died):
         with checks.run_script(script) as run:
             checks.wait_for_script_publisher(run, probe)
 

@@ -55,7 +55,7 @@ def test_measured_delivery_on_sim_time_equals_the_model(callback_s: float) -> No
     run = qos.run_delivery(callback_s)
     expected = qos.model_records(2, callback_s, 3, 6)
     assert qos.timeline_differences(run.records, expected) == []
-    assert run.wall_s < run.simulated_s  # faster than real time
+    # How much faster than real time is a benchmark figure (benchmarks/bench_qos.py).
 
 
 def test_fast_subscriber_never_queues_more_than_one() -> None:
