@@ -271,7 +271,9 @@ def assert_cancel_honoured(run: GoalRun, rate_hz: float) -> None:
     )
     assert run.end_time is not None and run.cancel_time is not None
     late = run.end_time - run.cancel_time
-    assert late <= 1.0 / rate_hz + 0.05, (
+    # One step, plus the simulated clock's granularity in reading the result's arrival;
+    # a server that checks only every other step is a whole step later still.
+    assert late <= 1.0 / rate_hz + 0.2, (
         f"the goal stopped {late:.2f} s after the cancel request; expected within one "
         f"step ({1.0 / rate_hz:g} s): check is_cancel_requested at every step"
     )

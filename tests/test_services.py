@@ -12,7 +12,7 @@ from std_srvs.srv import SetBool, Trigger
 from test_msgs.action import Fibonacci
 
 from rosbook import service_checks
-from rosbook.actions import run_goal
+from rosbook.actions import run_goal, sleep
 from rosbook.demo_nodes import ClockServer, CountdownServer
 from rosbook.interfaces import InterfaceError, definition, from_yaml, message_class
 from rosbook.params import ParameterError, get_parameter, list_parameters, set_parameter
@@ -89,6 +89,32 @@ def test_ignored_cancel_is_reported(session) -> None:
     run = service_checks.countdown(clock, order=4, cancel_after=2)
     assert run.status_name == "SUCCEEDED"
     with pytest.raises(AssertionError, match="the cancel was ignored"):
+        service_checks.assert_cancel_honoured(run, rate_hz=2.0)
+
+
+class SlowToCancel(CountdownServer):
+    """Honours a cancel, but looks for one only every other step (one step late)."""
+
+    async def execute(self, goal_handle):  # type: ignore[no-untyped-def]
+        counted = [goal_handle.request.order]
+        goal_handle.publish_feedback(Fibonacci.Feedback(sequence=counted))
+        while counted[-1] > 0:
+            await sleep(self, 0.5)
+            if goal_handle.is_cancel_requested and len(counted) % 2 == 0:
+                goal_handle.canceled()
+                return Fibonacci.Result(sequence=counted)
+            counted.append(counted[-1] - 1)
+            goal_handle.publish_feedback(Fibonacci.Feedback(sequence=counted))
+        goal_handle.succeed()
+        return Fibonacci.Result(sequence=counted)
+
+
+def test_a_cancel_honoured_a_step_late_is_reported(session) -> None:
+    clock = session.sim_clock()
+    SlowToCancel()
+    run = service_checks.countdown(clock, order=10, cancel_after=3)
+    assert run.status_name == "CANCELED"
+    with pytest.raises(AssertionError, match=r"the goal stopped 1\.\d+ s after the cancel"):
         service_checks.assert_cancel_honoured(run, rate_hz=2.0)
 
 
