@@ -48,10 +48,24 @@ def build(out: Path, chapters: list[str] | None = None, timeout: float = 1800) -
     done = subprocess.run(
         [*command, "."], cwd=ROOT, capture_output=True, text=True, timeout=timeout, check=False
     )
+    log = done.stdout + done.stderr
+    (out / "build.log").write_text(log)
     if done.returncode != 0:
-        tail = "\n".join((done.stdout + done.stderr).splitlines()[-60:])
-        raise RuntimeError(f"book build failed (exit {done.returncode}):\n{tail}")
+        raise RuntimeError(
+            f"book build failed (exit {done.returncode}); full log: {out / 'build.log'}\n"
+            + failure_excerpt(log)
+        )
     return out / "_build" / "html"
+
+
+def failure_excerpt(log: str, context: int = 50) -> str:
+    """The failing cell and its error from a build log, else the log's end."""
+    lines = log.splitlines()
+    marker = "An error occurred while executing the following cell"
+    start = next((i for i, line in enumerate(lines) if marker in line), None)
+    if start is None:
+        return "\n".join(lines[-60:])
+    return "\n".join(lines[start : start + context])
 
 
 @dataclass(frozen=True)
