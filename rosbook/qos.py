@@ -32,7 +32,7 @@ from rclpy.event_handler import (
     QoSRequestedIncompatibleQoSInfo,
     SubscriptionEventCallbacks,
 )
-from rclpy.executors import MultiThreadedExecutor, SingleThreadedExecutor
+from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.publisher import Publisher
 from rclpy.qos import (
@@ -47,6 +47,7 @@ from rclpy.qos import (
 from rosgraph_msgs.msg import Clock
 from std_msgs.msg import String
 
+from rosbook.executors import MultiThreadedExecutor
 from rosbook.session import ros
 
 #: The policies whose mismatch stops a publisher and a subscription from connecting

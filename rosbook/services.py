@@ -16,11 +16,11 @@ from typing import Any
 
 import rclpy
 from rclpy.context import Context
-from rclpy.executors import MultiThreadedExecutor
 from rclpy.node import Node
 from rclpy.signals import SignalHandlerOptions
 from rclpy.task import Future
 
+from rosbook.executors import MultiThreadedExecutor
 from rosbook.interfaces import interface_name
 from rosbook.session import ros
 
