@@ -60,6 +60,7 @@ class GoalRun:
     """What a client saw of one goal: acceptance, feedback in order, final status, result."""
 
     accepted: bool = False
+    goal_id: str | None = None  # the goal's UUID in hex, once accepted
     feedback: list[Any] = field(default_factory=list)
     feedback_times: list[float] = field(default_factory=list)
     status: int = GoalStatus.STATUS_UNKNOWN
@@ -82,11 +83,16 @@ def run_goal(
     timeout: float = 5.0,
     cancel_after: int | None = None,
     on_feedback: Callable[[Any], None] | None = None,
+    on_accepted: Callable[[str], None] | None = None,
     spin: Callable[[Callable[[], bool], float], bool] | None = None,
 ) -> GoalRun:
     """Send ``goal`` to ``action`` and follow it to its end (or until ``timeout``).
 
     ``cancel_after=n`` requests cancellation once ``n`` feedback messages arrived.
+    ``on_feedback(feedback)`` and ``on_accepted(goal_id_hex)`` are called as they come.
+    Interrupted (Ctrl-C, a notebook's stop button) while the goal runs, it requests the
+    goal's cancellation before the ``KeyboardInterrupt`` goes on, as ``ros2 action
+    send_goal`` does.
     ``spin(condition, timeout)`` moves the world on while waiting (default: spin the
     node, with the whole session when it is a session node); pass one that advances a
     simulated clock to run a server on simulated time.
@@ -94,7 +100,7 @@ def run_goal(
     spin = spin or (lambda cond, t: spin_until(cond, node, t))
     client = ActionClient(node, action_type, action)
     run = GoalRun()
-    label = f"'{action}' ({interface_name(action_type)})"
+    label = f"{node.resolve_topic_name(action)} ({interface_name(action_type)})"
     try:
         wait_for_server(client, label, min(timeout, 2.0))
 
@@ -109,20 +115,33 @@ def run_goal(
 
         sent = client.send_goal_async(goal, feedback_callback=feedback)
         if not spin(sent.done, min(timeout, 2.0)):
-            raise ServiceCallError(f"action server {label} did not answer the goal request")
+            raise ServiceCallError(f"action server '{label}' did not answer the goal request")
         handle = sent.result()
         run.accepted = bool(handle.accepted)
         if not run.accepted:
             run.status = GoalStatus.STATUS_ABORTED
             return run
+        run.goal_id = bytes(handle.goal_id.uuid).hex()
+        if on_accepted is not None:
+            on_accepted(run.goal_id)
         result = handle.get_result_async()
-        if cancel_after is not None:
-            spin(lambda: result.done() or len(run.feedback) >= cancel_after, timeout)
-            if not result.done():
-                run.cancel_sent_at = len(run.feedback)
-                run.cancel_time = now()
-                handle.cancel_goal_async()
-        spin(result.done, timeout)
+
+        def cancel() -> Future:
+            run.cancel_sent_at = len(run.feedback)
+            run.cancel_time = now()
+            return handle.cancel_goal_async()
+
+        try:
+            if cancel_after is not None:
+                spin(lambda: result.done() or len(run.feedback) >= cancel_after, timeout)
+                if not result.done():
+                    cancel()
+            spin(result.done, timeout)
+        except KeyboardInterrupt:  # Ctrl-C, or a notebook cell interrupted: stop the goal
+            if not result.done() and run.cancel_sent_at is None:
+                canceling = cancel()
+                spin(canceling.done, 2.0)
+            raise
         if result.done():
             run.end_time = now()
             run.status = result.result().status

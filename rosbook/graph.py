@@ -104,11 +104,14 @@ def wait_for(
 
 
 def snapshot(node: Node | None = None) -> tuple[object, ...]:
-    """What discovery has found so far: nodes, topics with types, endpoint counts."""
+    """What discovery has found so far: nodes, topics with types, endpoint counts,
+    services with types."""
     watcher = observer(node)
     topics = sorted((n, tuple(t)) for n, t in watcher.get_topic_names_and_types())
     counts = tuple((watcher.count_publishers(n), watcher.count_subscribers(n)) for n, _ in topics)
-    return (tuple(sorted(watcher.get_fully_qualified_node_names())), tuple(topics), counts)
+    services = sorted((n, tuple(t)) for n, t in watcher.get_service_names_and_types())
+    nodes = tuple(sorted(watcher.get_fully_qualified_node_names()))
+    return (nodes, tuple(topics), counts, tuple(services))
 
 
 #: Period of participant announcements (seconds): Fast DDS's default is 3 s; this
@@ -118,6 +121,8 @@ def snapshot(node: Node | None = None) -> tuple[object, ...]:
 ANNOUNCE_PERIOD_S = (
     0.25 if os.environ.get("FASTRTPS_DEFAULT_PROFILES_FILE") == str(FASTDDS_PROFILE) else 3.0
 )
+#: How long ``settle`` waits for a first visible node before it trusts an empty graph.
+FIRST_NODE_WAIT_S = ANNOUNCE_PERIOD_S + 1.0
 
 
 def settle(
@@ -131,7 +136,10 @@ def settle(
 
     Discovery is not instantaneous: a participant first learns that another exists,
     then its endpoints, and a freshly started one hears of the older participants
-    only at their next announcement (within ``ANNOUNCE_PERIOD_S``).
+    only at their next announcement (within ``ANNOUNCE_PERIOD_S``). While no visible
+    node is known yet, "nothing new" proves little (a busy machine may still be
+    exchanging the first announcements), so an empty graph is only trusted after
+    ``FIRST_NODE_WAIT_S``.
     """
     watcher = observer(node)
     start = time.monotonic()
@@ -141,9 +149,11 @@ def settle(
     def settled() -> bool:
         nonlocal last, changed
         now = snapshot(watcher)
-        if now != last:
-            last, changed = now, time.monotonic()
         t = time.monotonic()
+        if now != last:
+            last, changed = now, t
+        if t - start < FIRST_NODE_WAIT_S and not any(not is_hidden(n) for n in last[0]):
+            return False
         return t - start >= at_least and t - changed >= quiet
 
     return _spin_until(watcher, settled, timeout)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 import signal
 import subprocess
 import sys
@@ -141,3 +142,72 @@ def test_param_errors_name_the_reason(servers, capsys) -> None:
     )
     status, _, err = ros2(capsys, "param", "get", "/nobody", "rate_hz")
     assert (status, err) == (1, "ros2 param get: no node '/nobody' answers\n")
+
+
+def test_action_send_goal_prints_goal_id_feedback_result_and_status(servers, capsys) -> None:
+    status, out, err = ros2(
+        capsys, "action", "send_goal", "-f", "/countdown", "test_msgs/action/Fibonacci",
+        "{order: 2}",
+    )  # fmt: skip
+    assert (status, err) == (0, "")
+    assert out.startswith(
+        "Waiting for an action server to become available...\nSending goal:\n     order: 2\n\n"
+    )
+    assert re.search(r"^Goal accepted with ID: [0-9a-f]{32}$", out, re.MULTILINE), out
+    assert out.index("Goal accepted") < out.index("Feedback:")
+    feedback = re.findall(r"Feedback:\n    sequence:\n((?:- \d+\n)+)", out)
+    assert feedback == ["- 2\n", "- 2\n- 1\n", "- 2\n- 1\n- 0\n"]
+    assert out.endswith(
+        "Result:\n    sequence:\n- 2\n- 1\n- 0\n\nGoal finished with status: SUCCEEDED\n"
+    )
+    status, out, _ = ros2(
+        capsys, "action", "send_goal", "countdown", "test_msgs/action/Fibonacci", "{order: 1}"
+    )
+    assert status == 0 and "Feedback:" not in out and out.endswith("status: SUCCEEDED\n")
+
+
+@pytest.mark.parametrize(
+    ("argv", "error"),
+    [
+        (
+            ["/countdown", "test_msgs/action/Countdown", "{order: 1}"],
+            "ros2 action send_goal: unknown interface 'test_msgs/action/Countdown': "
+            "'test_msgs' has no action 'Countdown'\n",
+        ),
+        (
+            ["/countdown", "test_msgs/action/Fibonacci", "{start: 3}"],
+            "ros2 action send_goal: Fibonacci_Goal has no field 'start' (its fields: order)\n",
+        ),
+        (
+            ["/nobody", "test_msgs/action/Fibonacci", "{order: 1}"],
+            "ros2 action send_goal: no server for '/nobody (test_msgs/action/Fibonacci)' "
+            "appeared within 2 s\n",
+        ),
+    ],
+    ids=["unknown_type", "unknown_field", "no_server"],
+)
+def test_action_send_goal_errors_are_one_line_on_stderr(servers, capsys, argv, error) -> None:
+    status, out, err = ros2(capsys, "action", "send_goal", *argv)
+    assert (status, err) == (1, error)
+    assert "Traceback" not in out + err
+
+
+def test_action_send_goal_cancels_the_goal_on_ctrl_c(servers) -> None:
+    process = subprocess.Popen(
+        [sys.executable, "-m", "rosbook.cli", "action", "send_goal", "/countdown",
+         "test_msgs/action/Fibonacci", "{order: 50}"],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+    )  # fmt: skip
+    try:
+        lines = []
+        while not any(line.startswith("Goal accepted with ID") for line in lines):
+            line = process.stdout.readline()
+            assert line, f"send_goal ended before the goal was accepted: {lines}"
+            lines.append(line)
+        process.send_signal(signal.SIGINT)
+        out, err = process.communicate(timeout=10)
+    finally:
+        process.kill()
+    assert process.returncode == 0, err
+    assert out.strip().endswith("Canceling goal..."), out
+    assert "Traceback" not in err, err

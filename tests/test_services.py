@@ -5,6 +5,7 @@ from __future__ import annotations
 import time
 
 import pytest
+from action_msgs.msg import GoalStatus
 from rclpy.action import ActionServer
 from rclpy.node import Node
 from rclpy.parameter import Parameter
@@ -129,6 +130,48 @@ def test_run_goal_wall_time_prints_feedback(session) -> None:
         on_feedback=lambda f: seen.append(list(f.sequence)),
     )
     assert (run.status_name, seen) == ("SUCCEEDED", [[2], [2, 1], [2, 1, 0]])
+
+
+class RecordingCountdown(CountdownServer):
+    """The countdown server, remembering how each goal ended."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.ended: list[int] = []
+
+    async def execute(self, goal_handle):  # type: ignore[no-untyped-def]
+        result = await super().execute(goal_handle)
+        self.ended.append(goal_handle.status)
+        return result
+
+
+def test_interrupting_run_goal_cancels_the_goal_before_the_interrupt_goes_on(session) -> None:
+    server = RecordingCountdown()
+    server.set_parameters([Parameter("rate_hz", value=20.0)])
+    seen: list[int] = []
+    interrupted = []
+
+    def spin(condition, timeout):  # type: ignore[no-untyped-def]
+        def check() -> bool:
+            if len(seen) >= 2 and not interrupted:
+                interrupted.append(True)
+                raise KeyboardInterrupt  # as Ctrl-C would, in the middle of the wait
+            return condition()
+
+        return session.spin_until(check, timeout=timeout)
+
+    with pytest.raises(KeyboardInterrupt):
+        run_goal(
+            Node("user"),
+            Fibonacci,
+            "countdown",
+            Fibonacci.Goal(order=50),
+            on_feedback=lambda f: seen.append(f.sequence[-1]),
+            spin=spin,
+        )
+    assert session.spin_until(lambda: bool(server.ended), timeout=5.0)
+    assert server.ended == [GoalStatus.STATUS_CANCELED]
+    assert len(seen) < 10, "the countdown stopped soon after the interrupt"
 
 
 def test_parameters_from_outside(session) -> None:

@@ -15,39 +15,42 @@ import importlib
 import os
 import pkgutil
 import sys
-import time
 from collections.abc import Iterator
 from contextlib import contextmanager
 
 import rclpy
-import rclpy.executors
 from rclpy.context import Context
 from rclpy.node import Node
 from rclpy.signals import SignalHandlerOptions
 
+from rosbook import graph
+
 #: Wall time a fresh CLI node waits for discovery before it reads the graph
 #: (the real ``ros2`` CLI keeps a daemon running for this; we start cold each time).
 DISCOVERY_S = 0.5
+#: Longest a verb waits for what it looks for (a service, an action's nodes, a
+#: parameter service's answer), in seconds of wall time.
+GRAPH_TIMEOUT_S = 5.0
 
 
 @contextmanager
-def cli_node(discovery_s: float = DISCOVERY_S) -> Iterator[Node]:
-    """A short-lived, hidden node in a context of its own, after discovery settled.
+def cli_node(discovery_s: float = DISCOVERY_S, *, settle: bool = False) -> Iterator[Node]:
+    """A short-lived, hidden node in a context of its own.
 
-    Its name starts with an underscore, like the real CLI's ``_ros2cli_*`` nodes, so
-    graph listings leave it out by default.
+    It first spins ``discovery_s`` so that discovery can start. With ``settle`` (for
+    listings of the whole graph) it instead waits until discovery found nothing new for
+    a while, and at least one participant announcement period
+    (``rosbook.graph.settle``). Its name starts with an underscore, like the real
+    CLI's ``_ros2cli_*`` nodes, so graph listings leave it out by default.
     """
     context = Context()
     rclpy.init(context=context, signal_handler_options=SignalHandlerOptions.NO)
     node = Node(f"_ros2cli_{os.getpid()}", context=context, start_parameter_services=False)
     try:
-        executor = rclpy.executors.SingleThreadedExecutor(context=context)
-        executor.add_node(node)
-        deadline = time.monotonic() + discovery_s
-        while time.monotonic() < deadline:
-            executor.spin_once(timeout_sec=0.05)
-        executor.remove_node(node)
-        executor.shutdown(timeout_sec=0)
+        if settle:
+            graph.settle(node, at_least=graph.ANNOUNCE_PERIOD_S)
+        else:
+            graph.wait_for(lambda _: False, node, timeout=discovery_s)
         yield node
     finally:
         node.destroy_node()

@@ -1,8 +1,9 @@
-"""``ros2 action list [-t]`` and ``ros2 action info ACTION``."""
+"""``ros2 action list [-t]``, ``ros2 action info ACTION`` and ``ros2 action send_goal``."""
 
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 from collections.abc import Callable
 
@@ -13,8 +14,11 @@ from rclpy.action.graph import (
 )
 from rclpy.node import Node
 
-from rosbook.cli import cli_node
-from rosbook.cli.discovery import SETTLE_S, settle, wait_for
+from rosbook import graph
+from rosbook.actions import run_goal
+from rosbook.cli import GRAPH_TIMEOUT_S, cli_node
+from rosbook.interfaces import InterfaceError, from_yaml, message_class, to_yaml
+from rosbook.services import ServiceCallError
 
 #: A by-node action lookup of ``rclpy.action.graph``.
 Lookup = Callable[[Node, str, str], list[tuple[str, list[str]]]]
@@ -30,11 +34,19 @@ def add_parser(verbs: argparse._SubParsersAction) -> None:
     info.add_argument("action_name")
     info.add_argument("-t", "--show-types", action="store_true", help="show each type")
     info.set_defaults(func=action_info)
+    goal = commands.add_parser("send_goal", help="send a goal and wait for its result")
+    goal.add_argument("action_name")
+    goal.add_argument("action_type", help="e.g. test_msgs/action/Fibonacci")
+    goal.add_argument("goal", nargs="?", default="", help="goal as YAML: '{order: 5}'")
+    goal.add_argument("-f", "--feedback", action="store_true", help="print the feedback")
+    goal.add_argument(
+        "--timeout", type=float, default=math.inf, help="give up after S seconds (not in ros2)"
+    )
+    goal.set_defaults(func=send_goal)
 
 
 def list_actions(args: argparse.Namespace) -> int:
-    with cli_node(discovery_s=0) as node:
-        settle(node)
+    with cli_node(settle=True) as node:
         actions = get_action_names_and_types(node)
     for name, types in sorted(actions):
         print(f"{name} [{', '.join(types)}]" if args.show_types else name)
@@ -64,8 +76,8 @@ def action_info(args: argparse.Namespace) -> int:
             )
 
         # The action's name and the nodes behind it are discovered separately.
-        if wait_for(lambda: any(users())):
-            settle(node, timeout=SETTLE_S * 4)
+        if graph.wait_for(lambda _: any(users()), node, GRAPH_TIMEOUT_S):
+            graph.settle(node)
         if action not in dict(get_action_names_and_types(node)):
             print(f"ros2 action info: no action '{action}' is running", file=sys.stderr)
             return 1
@@ -75,4 +87,65 @@ def action_info(args: argparse.Namespace) -> int:
         print(f"{title}: {len(users)}")
         for name, types in users:
             print(f"    {name} [{', '.join(types)}]" if args.show_types else f"    {name}")
+    return 0
+
+
+def send_goal(args: argparse.Namespace) -> int:
+    """Print as the real ``ros2 action send_goal`` does: goal, ID, feedback, result, status."""
+    try:
+        action_type = message_class(args.action_type)
+        goal = from_yaml(action_type.Goal, args.goal)
+    except InterfaceError as exc:
+        print(f"ros2 action send_goal: {exc}", file=sys.stderr)
+        return 1
+
+    early: list[object] | None = []  # feedback that overtook the goal's acceptance
+
+    def show(message: object) -> None:
+        print(f"Feedback:\n    {to_yaml(message)}\n", flush=True)
+
+    def accepted(goal_id: str) -> None:
+        nonlocal early
+        print(f"Goal accepted with ID: {goal_id}\n", flush=True)
+        for message in early or []:
+            show(message)
+        early = None
+
+    def feedback(message: object) -> None:
+        if early is not None:
+            early.append(message)
+        else:
+            show(message)
+
+    action = "/" + args.action_name.lstrip("/")
+    with cli_node(discovery_s=0) as node:
+        print("Waiting for an action server to become available...")
+        print(f"Sending goal:\n     {to_yaml(goal)}\n", flush=True)
+        try:
+            run = run_goal(
+                node,
+                action_type,
+                action,
+                goal,
+                timeout=args.timeout,
+                on_accepted=accepted,
+                on_feedback=feedback if args.feedback else None,
+            )
+        except ServiceCallError as exc:
+            print(f"ros2 action send_goal: {exc}", file=sys.stderr)
+            return 1
+        except KeyboardInterrupt:  # run_goal asked the server to cancel the goal
+            print("Canceling goal...")
+            return 0
+    if not run.accepted:
+        print("Goal was rejected.")
+        return 1
+    if run.result is None:
+        print(
+            f"ros2 action send_goal: no result from '{action}' within {args.timeout:g} s",
+            file=sys.stderr,
+        )
+        return 1
+    print(f"Result:\n    {to_yaml(run.result)}\n")
+    print(f"Goal finished with status: {run.status_name}")
     return 0

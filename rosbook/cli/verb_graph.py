@@ -5,9 +5,8 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from rosbook.cli import DISCOVERY_S, cli_node
+from rosbook.cli import cli_node
 from rosbook.cli.reporting import reports_errors
-from rosbook.graph import ANNOUNCE_PERIOD_S, settle
 from rosbook.graph_svg import collect, to_svg
 
 
@@ -25,8 +24,7 @@ def add_parser(verbs: argparse._SubParsersAction) -> None:  # type: ignore[type-
 
 @reports_errors
 def draw(args: argparse.Namespace) -> int:
-    with cli_node() as node:
-        settle(node, at_least=ANNOUNCE_PERIOD_S - DISCOVERY_S)
+    with cli_node(settle=True) as node:
         edges = collect(node, include_hidden=args.include_hidden, include_debug=args.include_debug)
     if args.svg is not None:
         args.svg.write_text(to_svg(edges) + "\n")

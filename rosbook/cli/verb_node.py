@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 
 from rosbook import graph
-from rosbook.cli import DISCOVERY_S, cli_node
+from rosbook.cli import cli_node
 from rosbook.cli.reporting import reports_errors
 
 
@@ -26,8 +26,7 @@ def add_parser(verbs: argparse._SubParsersAction) -> None:  # type: ignore[type-
 
 @reports_errors
 def list_nodes(args: argparse.Namespace) -> int:
-    with cli_node() as node:
-        graph.settle(node, at_least=graph.ANNOUNCE_PERIOD_S - DISCOVERY_S)
+    with cli_node(settle=True) as node:
         names = graph.node_names(node, include_hidden=args.all)
     if args.count_nodes:
         print(len(names))

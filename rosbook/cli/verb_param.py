@@ -5,8 +5,7 @@ from __future__ import annotations
 import argparse
 import sys
 
-from rosbook.cli import cli_node
-from rosbook.cli.discovery import GRAPH_TIMEOUT_S, settle
+from rosbook.cli import GRAPH_TIMEOUT_S, cli_node
 from rosbook.params import ParameterError, get_parameter, list_parameters, set_parameter
 from rosbook.services import ServiceCallError
 
@@ -36,9 +35,7 @@ def _absolute(node_name: str) -> str:
 
 
 def list_params(args: argparse.Namespace) -> int:
-    with cli_node(discovery_s=0) as node:
-        if not args.node_name:
-            settle(node)
+    with cli_node(discovery_s=0, settle=not args.node_name) as node:
         if args.node_name:
             targets = [_absolute(args.node_name)]
         else:

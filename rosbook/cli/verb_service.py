@@ -5,8 +5,8 @@ from __future__ import annotations
 import argparse
 import sys
 
-from rosbook.cli import cli_node
-from rosbook.cli.discovery import settle, wait_for
+from rosbook import graph
+from rosbook.cli import GRAPH_TIMEOUT_S, cli_node
 from rosbook.interfaces import InterfaceError, from_yaml, message_class
 from rosbook.services import ServiceCallError, call
 
@@ -37,8 +37,7 @@ def hidden(name: str) -> bool:
 
 
 def list_services(args: argparse.Namespace) -> int:
-    with cli_node(discovery_s=0) as node:
-        settle(node)
+    with cli_node(settle=True) as node:
         services = node.get_service_names_and_types()
     for name, types in sorted(services):
         if hidden(name) and not args.include_hidden_services:
@@ -50,7 +49,9 @@ def list_services(args: argparse.Namespace) -> int:
 def service_type(args: argparse.Namespace) -> int:
     name = "/" + args.service_name.lstrip("/")
     with cli_node(discovery_s=0) as node:
-        wait_for(lambda: name in dict(node.get_service_names_and_types()))
+        graph.wait_for(
+            lambda g: name in dict(g.get_service_names_and_types()), node, GRAPH_TIMEOUT_S
+        )
         services = dict(node.get_service_names_and_types())
     if name not in services:
         print(f"ros2 service type: no service '{name}' is running", file=sys.stderr)

@@ -51,8 +51,7 @@ def add_parser(verbs: argparse._SubParsersAction) -> None:  # type: ignore[type-
 
 @reports_errors
 def list_topics(args: argparse.Namespace) -> int:
-    with cli_node() as node:
-        graph.settle(node, at_least=graph.ANNOUNCE_PERIOD_S - DISCOVERY_S)
+    with cli_node(settle=True) as node:
         topics = graph.topic_names_and_types(node, include_hidden=args.include_hidden_topics)
     if args.count_topics:
         print(len(topics))
