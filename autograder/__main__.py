@@ -75,8 +75,8 @@ def main(argv: list[str] | None = None) -> int:
     if not path.is_file():
         print(f"error: no notebook at {path}", file=sys.stderr)
         return 2
-    results, changed = check(path.resolve(), args.timeout)
-    print(report(path, results, changed))
+    results, changed, flagged = check(path.resolve(), args.timeout)
+    print(report(path, results, changed, flagged))
     return 0 if results and all(r.passed for r in results) else 1
 
 

@@ -7,6 +7,7 @@ passes and what does not and why. Hidden checks run only when the lab is graded.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -16,6 +17,7 @@ from nbgrader.utils import determine_grade
 
 from autograder.config import LABS, nbgrader_config
 from autograder.feedback import is_test_cell
+from autograder.integrity import grading_code_changes
 from autograder.worker import locked_cell_changes
 from rosbook.isolation import isolated_environ, kill_marked
 
@@ -60,8 +62,9 @@ def error_message(cell: nbformat.NotebookNode) -> str:
     return ""
 
 
-def check(path: Path, cell_timeout: int = 30) -> tuple[list[CheckResult], list[str]]:
-    """Results of the visible checks, and the locked cells that differ from the release."""
+def check(path: Path, cell_timeout: int = 30) -> tuple[list[CheckResult], list[str], list[str]]:
+    """Results of the visible checks, the locked cells that differ from the release, and
+    the lines that reach into the grading code (``autograder.integrity``)."""
     notebook = run_notebook(path, cell_timeout)
     results = []
     for cell in notebook.cells:
@@ -70,13 +73,18 @@ def check(path: Path, cell_timeout: int = 30) -> tuple[list[CheckResult], list[s
             grade_id = cell.metadata.nbgrader["grade_id"]
             results.append(CheckResult(grade_id, points or 0.0, max_points, error_message(cell)))
     release = LABS / path.stem / path.name
-    changed = []
-    if release.exists() and release.resolve() != path.resolve():
-        changed = locked_cell_changes(notebook, nbformat.read(release, as_version=4))
-    return results, changed
+    changed, flagged = [], []
+    if release.exists():
+        released = nbformat.read(release, as_version=4)
+        flagged = grading_code_changes(notebook, released)
+        if release.resolve() != path.resolve():
+            changed = locked_cell_changes(notebook, released)
+    return results, changed, flagged
 
 
-def report(path: Path, results: list[CheckResult], changed: list[str]) -> str:
+def report(
+    path: Path, results: list[CheckResult], changed: list[str], flagged: Sequence[str] = ()
+) -> str:
     passed = sum(r.passed for r in results)
     lines = [
         f"{path.name}: {passed} of {len(results)} visible checks pass "
@@ -92,4 +100,10 @@ def report(path: Path, results: list[CheckResult], changed: list[str]) -> str:
             "  WARNING: these locked cells differ from the released lab and will be "
             "restored before grading: " + ", ".join(changed)
         )
+    if flagged:
+        lines.append(
+            "  WARNING: these lines reach into the grading code; a graded submission "
+            "with them is marked 'tampered' for your instructor to review:"
+        )
+        lines.extend("        " + line for line in flagged)
     return "\n".join(lines)

@@ -26,6 +26,7 @@ from nbgrader.utils import compute_checksum
 
 from autograder.course import api
 from autograder.feedback import add_notice, is_test_cell
+from autograder.integrity import grading_code_changes
 
 
 @dataclass
@@ -107,6 +108,7 @@ def grade(job: Job) -> Result:
     released = nbformat.read(template / "release" / job.assignment_id / job.notebook, as_version=4)
     submitted = nbformat.read(notebook_path, as_version=4)
     tampered = locked_cell_changes(submitted, released)
+    meddling = grading_code_changes(submitted, released)
 
     grader = api(scratch, **{"Execute.timeout": job.cell_timeout})
     started = time.monotonic()
@@ -174,6 +176,16 @@ def grade(job: Job) -> Result:
         add_notice(page, "Cells interrupted", message, status)
     else:
         status, message = "ok", ""
+    if meddling:  # tampering too, though no locked cell changed: for a person to judge
+        status = "tampered"
+        said = (
+            "Your cells reach into the code that grades them: "
+            + "; ".join(meddling)
+            + ". The score is what the checks gave; your instructor sees this submission "
+            "marked 'tampered' and will review it."
+        )
+        message = f"{message} {said}".strip()
+        add_notice(page, "Grading code changed", said, status)
     destination = Path(job.feedback)
     destination.parent.mkdir(parents=True, exist_ok=True)
     shutil.copy(page, destination)

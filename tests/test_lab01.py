@@ -77,6 +77,8 @@ def graded(tmp_path_factory: pytest.TempPathFactory) -> tuple[dict, Path]:
     submit(root, "right", LAB, right)
     submit(root, "wrong", LAB, wrong())
     submit(root, "tampered", LAB, with_cell(right, "test_doubler", "pass"))
+    cheat = "checks.assert_sequence = lambda *args, **kwargs: None  # make every check pass"
+    submit(root, "meddling", LAB, extra_cell(wrong(), cheat))
     submit(root, "looping", LAB, extra_cell(answered(LAB), "while True:\n    pass"))
     submit(root, "exiting", LAB, extra_cell(answered(LAB), "import os\nos._exit(0)"))
     submit(root, "broken", LAB, '{"cells": [ this is not JSON')
@@ -97,6 +99,7 @@ def test_every_student_gets_a_row_and_a_feedback_page(graded: tuple[dict, Path])
         "right",
         "wrong",
         "tampered",
+        "meddling",
         "looping",
         "exiting",
         "broken",
@@ -138,6 +141,14 @@ def test_changed_locked_cell_is_graded_with_the_original_and_marked(graded) -> N
     assert "test_doubler" in feedback(graded[1], "tampered", LAB)
 
 
+def test_a_cell_that_changes_the_checks_is_marked_tampered_and_named(graded) -> None:
+    r = row(graded, "meddling")
+    assert r["status"] == "tampered"
+    page = feedback(graded[1], "meddling", LAB)
+    assert "Grading code changed" in page
+    assert "cell 3, line 1: changes checks.assert_sequence" in page
+
+
 def test_endless_student_cell_is_interrupted_and_the_rest_graded(graded) -> None:
     r = row(graded, "looping")
     assert (r["status"], r["score"]) == ("timeout", "10")
@@ -164,8 +175,8 @@ def test_grading_leaves_no_process_behind(graded) -> None:
 def test_self_check_reports_each_visible_check(tmp_path: Path) -> None:
     path = tmp_path / f"{LAB}.ipynb"
     nbformat.write(wrong(), path)
-    results, changed = check(path, cell_timeout=20)
-    text = report(path, results, changed)
+    results, changed, flagged = check(path, cell_timeout=20)
+    text = report(path, results, changed, flagged)
     passed = {r.grade_id: r.passed for r in results}
     assert passed == {
         "test_counter_publisher": False,
@@ -181,5 +192,5 @@ def test_self_check_passes_on_the_solution(tmp_path: Path) -> None:
     path = tmp_path / f"{LAB}.ipynb"
     shutil.copy(notebook_path(LAB), path)
     nbformat.write(answered(LAB), path)
-    results, _ = check(path, cell_timeout=20)
+    results, _, _ = check(path, cell_timeout=20)
     assert results and all(r.passed for r in results), report(path, results, [])

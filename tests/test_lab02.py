@@ -105,7 +105,7 @@ def test_feedback_never_shows_hidden_tests(graded) -> None:
 def test_self_check_names_the_failing_visible_checks(tmp_path: Path) -> None:
     path = tmp_path / f"{LAB}.ipynb"
     nbformat.write(reliable_scan_subscription(), path)
-    results, _ = check(path, cell_timeout=20)
+    results, _, _ = check(path, cell_timeout=20)
     passed = {r.grade_id: r.passed for r in results}
     assert passed == {
         "test_map_publisher": True,
