@@ -32,3 +32,8 @@ c.GenerateFeedback.preprocessors = [
     "autograder.feedback.ShortenTestTracebacks",
     "nbconvert.preprocessors.CSSHTMLHeaderPreprocessor",
 ]
+
+# Kernels talk to the grader over Unix sockets, not TCP ports on localhost: two kernels
+# starting at once cannot race for a port, and ipykernel does not warn about
+# unencrypted TCP (autograder/kernels.py).
+c.Execute.kernel_manager_class = "autograder.kernels.IpcKernelManager"
