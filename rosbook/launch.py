@@ -27,6 +27,7 @@ XML/YAML launch files and log files under ``~/.ros/log``.
 from __future__ import annotations
 
 import atexit
+import ctypes
 import json
 import os
 import queue
@@ -40,6 +41,18 @@ from pathlib import Path
 from typing import IO, Any
 
 from rosbook.workspace import executable_path
+
+#: prctl(2) option: the signal a process gets when its parent dies (Linux).
+_PR_SET_PDEATHSIG = 1
+
+
+def _die_with_launcher() -> None:
+    """In a launched child, before exec: SIGTERM when the launcher dies, however it dies.
+
+    Each node runs in a session of its own (our Ctrl-C reaches it once, from us), so a
+    launcher killed with SIGKILL would otherwise leave its nodes running.
+    """
+    ctypes.CDLL(None, use_errno=True).prctl(_PR_SET_PDEATHSIG, signal.SIGTERM)
 
 
 @dataclass(frozen=True)
@@ -242,6 +255,7 @@ class Launch:
                 stdout=subprocess.PIPE,
                 stderr=subprocess.PIPE,
                 start_new_session=True,  # our Ctrl-C is forwarded once, by us
+                preexec_fn=_die_with_launcher,
             )
             process = Process(node, name, cmd, popen)
             self.processes.append(process)

@@ -289,6 +289,33 @@ def test_ros2_launch_runs_an_installed_launch_file_and_stops_on_one_ctrl_c(
         assert text.count("process has finished cleanly") == 2, text
 
 
+def test_nodes_stop_when_the_launcher_itself_is_killed(env: dict[str, str]) -> None:
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "rosbook.cli", "launch", "robot_talk", "talk.launch.py"],
+        env=env,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+        text=True,
+    )
+    assert proc.stdout is not None
+    watchdog = threading.Timer(30.0, proc.kill)
+    watchdog.start()
+    lines: list[str] = []
+    for line in proc.stdout:
+        lines.append(line)
+        if "I heard" in line:
+            break
+    watchdog.cancel()
+    pids = [int(p) for p in re.findall(r"process started with pid \[(\d+)\]", "".join(lines))]
+    assert len(pids) == 2, lines
+    proc.kill()  # SIGKILL: the launcher gets no chance to stop its nodes itself
+    proc.wait(timeout=10)
+    deadline = time.monotonic() + 10.0
+    while any(alive(pid) for pid in pids) and time.monotonic() < deadline:
+        time.sleep(0.05)
+    assert not any(alive(pid) for pid in pids), "the nodes outlived their launcher"
+
+
 def test_ros2_launch_names_a_missing_launch_file(env: dict[str, str]) -> None:
     done = subprocess.run(
         [sys.executable, "-m", "rosbook.cli", "launch", "robot_talk", "nope.launch.py"],
