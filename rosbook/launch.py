@@ -16,8 +16,10 @@ first launch file uses, under the same names and fields::
 ``--ros-args`` the real ``launch_ros`` passes (``-r __node:=``, ``-r __ns:=``,
 ``-p name:=value``, ``-r from:=to``), merges their output with each line prefixed by the
 process name (``[talker-1] ...``), and stops them all with one Ctrl-C: SIGINT to each,
-then SIGTERM, then SIGKILL after ``sigterm_timeout`` / ``sigkill_timeout`` seconds. A
-node with ``on_exit=Shutdown()`` stops the whole system when it exits, as in launch.
+then SIGTERM, then SIGKILL after ``sigterm_timeout`` / ``sigkill_timeout`` seconds
+(a second Ctrl-C meanwhile is ignored, as in launch; ``timeout -s INT`` sends two at
+once). A node with ``on_exit=Shutdown()`` stops the whole
+system when it exits, as in launch.
 
 Not provided: substitutions and launch arguments, event handlers other than
 ``on_exit=Shutdown()``, included launch files, groups, composable nodes, respawn,
@@ -348,11 +350,15 @@ class Launch:
             self.wait()
         except KeyboardInterrupt:
             self._say("[WARNING] [launch]: user interrupted with ctrl-c (SIGINT)")
-            try:
-                self.shutdown()
-            except KeyboardInterrupt:  # a second Ctrl-C: no more waiting
-                self._say("[WARNING] [launch]: second ctrl-c: killing every process")
-                self.shutdown(sigterm_timeout=0.0, sigkill_timeout=0.0)
+            while True:
+                try:
+                    self.shutdown()
+                    break
+                except KeyboardInterrupt:  # as launch does: SIGTERM, SIGKILL come in time
+                    self._say(
+                        "[WARNING] [launch]: user interrupted with ctrl-c (SIGINT) again, "
+                        "ignoring..."
+                    )
         self._drain()
         return 0 if all(p.returncode == 0 for p in self.processes) else 1
 

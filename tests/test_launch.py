@@ -289,6 +289,37 @@ def test_ros2_launch_runs_an_installed_launch_file_and_stops_on_one_ctrl_c(
         assert text.count("process has finished cleanly") == 2, text
 
 
+def test_a_second_ctrl_c_while_stopping_is_ignored_as_in_launch(env: dict[str, str]) -> None:
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "rosbook.cli", "launch", "robot_talk", "talk.launch.py"],
+        env=env,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+        text=True,
+        start_new_session=True,
+    )
+    assert proc.stdout is not None
+    watchdog = threading.Timer(30.0, os.killpg, (proc.pid, signal.SIGKILL))
+    watchdog.start()
+    lines: list[str] = []
+    for line in proc.stdout:
+        lines.append(line)
+        if "I heard" in line:
+            break
+    watchdog.cancel()
+    os.killpg(proc.pid, signal.SIGINT)
+    for line in proc.stdout:  # the launcher has begun to stop its nodes
+        lines.append(line)
+        if "shutting down" in line:
+            break
+    os.killpg(proc.pid, signal.SIGINT)
+    out, _ = proc.communicate(timeout=20)
+    text = "".join(lines) + out
+    assert proc.returncode == 0, text
+    assert text.count("process has finished cleanly") == 2, text
+    assert "still running" not in text, text
+
+
 def test_nodes_stop_when_the_launcher_itself_is_killed(env: dict[str, str]) -> None:
     proc = subprocess.Popen(
         [sys.executable, "-m", "rosbook.cli", "launch", "robot_talk", "talk.launch.py"],
