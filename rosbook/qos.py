@@ -428,15 +428,19 @@ class StepClock:
         self._pub: Publisher = self.node.create_publisher(Clock, "/clock", QoSProfile(depth=10))
         self.now_ns = 0
 
+    def publish(self) -> None:
+        """Publish the current time (again: ``/clock`` is best effort)."""
+        msg = Clock()
+        msg.clock.sec, msg.clock.nanosec = divmod(self.now_ns, 1_000_000_000)
+        self._pub.publish(msg)
+
     def set(self, now_ns: int, nodes: Iterable[Node], timeout: float = 5.0) -> None:
         """Publish ``now_ns`` until every node in ``nodes`` reads at least that time."""
         self.now_ns = now_ns
-        msg = Clock()
-        msg.clock.sec, msg.clock.nanosec = divmod(now_ns, 1_000_000_000)
         watched = list(nodes)
         deadline = time.monotonic() + timeout
         while True:
-            self._pub.publish(msg)
+            self.publish()
             if wait_until(lambda: all(_now_ns(n) >= now_ns for n in watched), 0.05):
                 return
             if time.monotonic() > deadline:
@@ -542,11 +546,12 @@ def run_delivery(
     """A publisher at ``publish_hz`` and a subscriber whose callback takes ``callback_s``.
 
     Both ends use RELIABLE, VOLATILE, KEEP_LAST ``depth``; each is spun by its own
-    executor in its own thread, as if they were two processes. The publisher sends while
+    executor, as if they were two processes. The publisher sends while
     t < ``duration_s``; the run then lets the subscriber drain its queue, or stops
     ``horizon_s`` after the first publish. On ``sim_time`` the run's ``/clock`` moves from
-    event to event (a publish, a callback's end; at most ``max_step_s``), and each step
-    waits until both nodes have reacted; on wall time it just runs. Resets the session.
+    event to event (a publish, a callback's end; at most ``max_step_s``); at each step the
+    subscriber reacts first, then the run spins the publisher (``_drive``). On wall time
+    both run in threads of their own. Resets the session.
     """
     count = len(publish_times(publish_hz, duration_s))
     qos = delivery_qos(depth)
@@ -565,10 +570,12 @@ def run_delivery(
     pub_exec.add_node(pub)
     sub_exec = MultiThreadedExecutor(num_threads=2)
     sub_exec.add_node(sub)
-    spinners = [Spinner(pub_exec), Spinner(sub_exec)]
+    # On simulated time the run itself spins the publisher, in step with the clock
+    # (see _drive); on wall time both run freely.
+    spinners = [Spinner(sub_exec)] + ([Spinner(pub_exec)] if clock is None else [])
     try:
         if clock is not None:
-            _drive(clock, pub, sub, horizon_s, int(round(max_step_s * 1e9)))
+            _drive(clock, pub_exec, pub, sub, horizon_s, int(round(max_step_s * 1e9)))
         else:
             _run_wall(pub, sub, horizon_s)
         origin = pub.sent_ns[0]
@@ -580,6 +587,9 @@ def run_delivery(
             clock.set(clock.now_ns + 1_000_000_000_000, [sub])
         for spinner in spinners:
             spinner.stop()
+        if clock is not None:
+            pub_exec.shutdown(timeout_sec=5.0)
+            pub_exec.remove_node(pub)
         ros.reset()
     if horizon_s is not None:
         records = until(records, horizon_s)
@@ -590,39 +600,56 @@ def run_delivery(
 
 def _drive(
     clock: StepClock,
+    pub_exec: SingleThreadedExecutor,
     pub: CountingPublisher,
     sub: WorkingSubscriber,
     horizon_s: float | None,
     max_step_ns: int,
     timeout: float = 5.0,
 ) -> None:
-    """Move ``/clock`` from event to event until the subscriber has drained (or horizon)."""
-    nodes = [pub, sub]
+    """Move ``/clock`` from event to event until the subscriber has drained (or horizon).
+
+    Each step first lets the subscriber follow the clock and react (a callback ends and
+    the next queued message is taken), and only then spins the publisher until its
+    timer has fired: its message can never reach a subscriber whose clock still reads
+    the previous step, and a callback that ends at the instant of a publish ends first.
+    """
+
+    def settled() -> bool:
+        return _settled(sub, pub, clock.now_ns)
+
+    def published() -> bool:
+        return _now_ns(pub) >= clock.now_ns and len(pub.sent_ns) >= pub.expected_by(clock.now_ns)
+
     horizon_ns: int | None = None
-    clock.set(0, nodes)
+    now_ns = 0
     while True:
-        reacted = wait_until(
-            lambda: (
-                len(pub.sent_ns) >= pub.expected_by(clock.now_ns)
-                and _settled(sub, pub, clock.now_ns)
-            ),
-            timeout,
-        )
-        if not reacted:
-            raise TimeoutError(f"the nodes did not react at t = {clock.now_ns / 1e9:.3f} s")
+        clock.set(now_ns, [sub])
+        if not wait_until(settled, timeout):
+            raise TimeoutError(f"the subscriber did not react at t = {now_ns / 1e9:.3f} s")
+        start = time.monotonic()
+        while not published():
+            waited = time.monotonic() - start
+            if waited > timeout:
+                raise TimeoutError(f"the publisher did not publish at t = {now_ns / 1e9:.3f} s")
+            if waited > 0.05 and _now_ns(pub) < now_ns:
+                clock.publish()  # the publisher missed it
+            pub_exec.spin_once(timeout_sec=0.01)
+        if not wait_until(settled, timeout):
+            raise TimeoutError(f"the subscriber did not react at t = {now_ns / 1e9:.3f} s")
         if pub.sent_ns and horizon_s is not None and horizon_ns is None:
             horizon_ns = pub.sent_ns[0] + int(round(horizon_s * 1e9))
         drained = len(pub.sent_ns) >= pub.count and sub.busy_until is None
-        if drained or (horizon_ns is not None and clock.now_ns >= horizon_ns):
+        if drained or (horizon_ns is not None and now_ns >= horizon_ns):
             return
-        candidates = [clock.now_ns + max_step_ns]
+        candidates = [now_ns + max_step_ns]
         if len(pub.sent_ns) < pub.count:
             candidates.append((len(pub.sent_ns) + 1) * pub.period_ns)
         if sub.busy_until is not None:
             candidates.append(sub.busy_until)
         if horizon_ns is not None:
             candidates.append(horizon_ns)
-        clock.set(min(candidates), nodes)
+        now_ns = min(candidates)
 
 
 def _run_wall(pub: CountingPublisher, sub: WorkingSubscriber, horizon_s: float | None) -> None:

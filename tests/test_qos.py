@@ -58,6 +58,22 @@ def test_measured_delivery_on_sim_time_equals_the_model(callback_s: float) -> No
     # How much faster than real time is a benchmark figure (benchmarks/bench_qos.py).
 
 
+@pytest.mark.parametrize(
+    ("callback_s", "depth", "duration_s"),
+    [(0.1, 3, 6.0), (1.7, 3, 6.0), (1.5, 1, 3.0)],
+    ids=["fast", "slow", "finish_and_arrival_at_once"],
+)
+def test_measured_delivery_equals_the_model_in_every_run(
+    callback_s: float, depth: int, duration_s: float
+) -> None:
+    """The same table every time: each step, the subscriber follows the clock (and a
+    callback that ends at that instant ends) before the publisher's timer fires."""
+    expected = qos.model_records(2, callback_s, depth, duration_s)
+    for _ in range(8):
+        run = qos.run_delivery(callback_s, depth=depth, duration_s=duration_s)
+        assert qos.timeline_differences(run.records, expected) == []
+
+
 def test_fast_subscriber_never_queues_more_than_one() -> None:
     run = qos.run_delivery(0.1)
     assert run.dropped == [] and qos.max_queue(run.records) == 1
