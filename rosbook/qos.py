@@ -464,9 +464,14 @@ class Spinner:
     def stop(self) -> None:
         self._stop.set()
         self._thread.join(timeout=5.0)
-        self.executor.shutdown(timeout_sec=5.0)
-        for node in list(self.executor.get_nodes()):
-            self.executor.remove_node(node)
+        _close(self.executor)
+
+
+def _close(executor: SingleThreadedExecutor | MultiThreadedExecutor) -> None:
+    """Shut ``executor`` down and let go of its nodes."""
+    executor.shutdown(timeout_sec=5.0)
+    for node in list(executor.get_nodes()):
+        executor.remove_node(node)
 
 
 @dataclass
@@ -588,8 +593,7 @@ def run_delivery(
         for spinner in spinners:
             spinner.stop()
         if clock is not None:
-            pub_exec.shutdown(timeout_sec=5.0)
-            pub_exec.remove_node(pub)
+            _close(pub_exec)
         ros.reset()
     if horizon_s is not None:
         records = until(records, horizon_s)

@@ -255,6 +255,36 @@ def generate_launch_description():
 """
 
 
+def start_launch(env: dict[str, str], *argv: str) -> subprocess.Popen[str]:
+    """``ros2 launch ARGV`` in a terminal of its own (a Ctrl-C goes to its group)."""
+    return subprocess.Popen(
+        [sys.executable, "-m", "rosbook.cli", "launch", *argv],
+        env=env,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+        text=True,
+        start_new_session=True,
+    )
+
+
+def read_until(proc: subprocess.Popen[str], marker: str, lines: list[str]) -> list[str]:
+    """Append ``proc``'s output lines to ``lines`` up to the first holding ``marker``
+    (the launcher is SIGKILLed if that takes 30 s)."""
+    assert proc.stdout is not None
+    watchdog = threading.Timer(30.0, os.killpg, (proc.pid, signal.SIGKILL))
+    watchdog.start()
+    for line in proc.stdout:
+        lines.append(line)
+        if marker in line:
+            break
+    watchdog.cancel()
+    return lines
+
+
+def started_pids(text: str) -> list[int]:
+    return [int(p) for p in re.findall(r"process started with pid \[(\d+)\]", text)]
+
+
 def test_ros2_launch_runs_an_installed_launch_file_and_stops_on_one_ctrl_c(
     env: dict[str, str], tmp_path: Path
 ) -> None:
@@ -262,27 +292,12 @@ def test_ros2_launch_runs_an_installed_launch_file_and_stops_on_one_ctrl_c(
     path.write_text(LAUNCH_FILE)
     assert [n.namespace for n in load_launch_file(path).entities] == ["robot1", "robot1"]
     for argv in (["robot_talk", "talk.launch.py"], [str(path)]):
-        proc = subprocess.Popen(
-            [sys.executable, "-m", "rosbook.cli", "launch", *argv],
-            env=env,
-            stdout=subprocess.PIPE,
-            stderr=subprocess.STDOUT,
-            text=True,
-            start_new_session=True,  # a terminal of its own: Ctrl-C goes to its group
-        )
-        lines: list[str] = []
-        assert proc.stdout is not None
-        watchdog = threading.Timer(30.0, os.killpg, (proc.pid, signal.SIGKILL))
-        watchdog.start()
-        for line in proc.stdout:
-            lines.append(line)
-            if "I heard" in line:
-                break
-        watchdog.cancel()
+        proc = start_launch(env, *argv)
+        lines = read_until(proc, "I heard", [])
         os.killpg(proc.pid, signal.SIGINT)
         out, _ = proc.communicate(timeout=20)
         text = "".join(lines) + out
-        pids = [int(p) for p in re.findall(r"process started with pid \[(\d+)\]", text)]
+        pids = started_pids(text)
         assert proc.returncode == 0, text
         assert len(pids) == 2 and not any(alive(pid) for pid in pids), text
         assert "user interrupted with ctrl-c (SIGINT)" in text
@@ -290,28 +305,10 @@ def test_ros2_launch_runs_an_installed_launch_file_and_stops_on_one_ctrl_c(
 
 
 def test_a_second_ctrl_c_while_stopping_is_ignored_as_in_launch(env: dict[str, str]) -> None:
-    proc = subprocess.Popen(
-        [sys.executable, "-m", "rosbook.cli", "launch", "robot_talk", "talk.launch.py"],
-        env=env,
-        stdout=subprocess.PIPE,
-        stderr=subprocess.STDOUT,
-        text=True,
-        start_new_session=True,
-    )
-    assert proc.stdout is not None
-    watchdog = threading.Timer(30.0, os.killpg, (proc.pid, signal.SIGKILL))
-    watchdog.start()
-    lines: list[str] = []
-    for line in proc.stdout:
-        lines.append(line)
-        if "I heard" in line:
-            break
-    watchdog.cancel()
+    proc = start_launch(env, "robot_talk", "talk.launch.py")
+    lines = read_until(proc, "I heard", [])
     os.killpg(proc.pid, signal.SIGINT)
-    for line in proc.stdout:  # the launcher has begun to stop its nodes
-        lines.append(line)
-        if "shutting down" in line:
-            break
+    read_until(proc, "shutting down", lines)  # the launcher has begun to stop its nodes
     os.killpg(proc.pid, signal.SIGINT)
     out, _ = proc.communicate(timeout=20)
     text = "".join(lines) + out
@@ -321,25 +318,11 @@ def test_a_second_ctrl_c_while_stopping_is_ignored_as_in_launch(env: dict[str, s
 
 
 def test_nodes_stop_when_the_launcher_itself_is_killed(env: dict[str, str]) -> None:
-    proc = subprocess.Popen(
-        [sys.executable, "-m", "rosbook.cli", "launch", "robot_talk", "talk.launch.py"],
-        env=env,
-        stdout=subprocess.PIPE,
-        stderr=subprocess.STDOUT,
-        text=True,
-    )
-    assert proc.stdout is not None
-    watchdog = threading.Timer(30.0, proc.kill)
-    watchdog.start()
-    lines: list[str] = []
-    for line in proc.stdout:
-        lines.append(line)
-        if "I heard" in line:
-            break
-    watchdog.cancel()
-    pids = [int(p) for p in re.findall(r"process started with pid \[(\d+)\]", "".join(lines))]
+    proc = start_launch(env, "robot_talk", "talk.launch.py")
+    lines = read_until(proc, "I heard", [])
+    pids = started_pids("".join(lines))
     assert len(pids) == 2, lines
-    proc.kill()  # SIGKILL: the launcher gets no chance to stop its nodes itself
+    proc.kill()  # SIGKILL to the launcher alone: it gets no chance to stop its nodes
     proc.wait(timeout=10)
     deadline = time.monotonic() + 10.0
     while any(alive(pid) for pid in pids) and time.monotonic() < deadline:
