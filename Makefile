@@ -5,13 +5,13 @@ PYTHON ?= python3
 VENV   := .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
-ISOLATED := $(BIN)/python -m rosbook.isolation --
+ISOLATED := $(BIN)/python -m rosbook.runtime.isolation --
 
 LAB ?= lab01_nodes_topics
 SUBMISSIONS ?= submissions
 OUT ?= grading
 
-.PHONY: book test lab check labs grade bench lint clean
+.PHONY: book test test-fast stress lab check labs grade bench lint clean
 
 $(STAMP): requirements.txt pyproject.toml
 	@$(PYTHON) -c 'import platform, sys; ok = sys.platform == "linux" and platform.machine() == "x86_64" and (3, 10) <= sys.version_info[:2] <= (3, 13); ok or sys.exit("ROS 2 Jazzy wheels exist for Linux x86_64 with Python 3.10-3.13 only; this is %s %s with Python %d.%d (see README: Mac and Windows)" % (sys.platform, platform.machine(), *sys.version_info[:2]))'
@@ -27,9 +27,23 @@ book: $(STAMP)
 test: $(STAMP)
 	$(ISOLATED) $(BIN)/python -m pytest
 
-## lab: JupyterLab on the student labs, in a ROS domain of its own
+## test-fast: the edit loop: library units and one lab round trip, no book build
+test-fast: $(STAMP)
+	$(ISOLATED) $(BIN)/python -m pytest -m "not slow"
+
+## stress: the book build and the whole test suite with the CPU oversubscribed by
+## STRESS_PER_CORE busy processes per core; every chapter is executed again
+STRESS_PER_CORE ?= 2
+stress: $(STAMP)
+	ROSBOOK_BOOK_CACHE=fresh $(BIN)/python -m rosbook.runtime.stress --per-core $(STRESS_PER_CORE) -- \
+		$(ISOLATED) $(BIN)/python -m pytest
+
+## lab: JupyterLab on the student labs, in a ROS domain of its own; its terminals have
+## the venv's ros2 and colcon in the kernel's domain (LAB_DIR, LAB_ARGS: other folder, flags)
+LAB_DIR ?= labs
+LAB_ARGS ?=
 lab: $(STAMP)
-	$(ISOLATED) $(BIN)/jupyter lab labs/
+	$(ISOLATED) $(BIN)/jupyter lab --config=rosbook/jupyterlab_config.py $(LAB_ARGS) $(LAB_DIR)
 
 ## check: a student's self-check of LAB before submitting
 check: $(STAMP)

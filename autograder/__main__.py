@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import argparse
+import shlex
+import signal
 import sys
 import tempfile
 from pathlib import Path
@@ -28,6 +30,23 @@ def main(argv: list[str] | None = None) -> int:
         default=600.0,
         help="seconds one submission may take in all before it is stopped",
     )
+    g.add_argument(
+        "--resume",
+        action="store_true",
+        help="keep the rows already in OUT whose notebook is unchanged; grade the rest",
+    )
+    g.add_argument(
+        "--student",
+        action="append",
+        metavar="ID[,ID...]",
+        help="regrade only these students (repeatable, or a comma list); other rows are kept",
+    )
+    g.add_argument(
+        "--scheduler",
+        metavar="ADDRESS",
+        help="grade on the workers of this Dask scheduler (tcp://host:8786) instead of here "
+        "(--workers is then ignored: each Dask worker grades --nthreads at once)",
+    )
 
     labs = sub.add_parser("labs", help="regenerate labs/ from solutions/")
     labs.add_argument("ids", nargs="*", help="labs to regenerate (default: all)")
@@ -35,31 +54,11 @@ def main(argv: list[str] | None = None) -> int:
     c = sub.add_parser("check", help="run a lab notebook's visible checks")
     c.add_argument("notebook", type=Path, help="a lab notebook, or a lab id")
     c.add_argument("--timeout", type=int, default=30, help="seconds per cell")
+    c.add_argument("--log", type=Path, help="where the nodes' log lines go")
 
     args = parser.parse_args(argv)
     if args.command == "grade":
-        from autograder.grade import STATUSES, GradingError, grade_class
-
-        try:
-            rows = grade_class(
-                args.submissions,
-                args.out,
-                args.assignment,
-                args.workers,
-                args.timeout,
-                args.submission_timeout,
-            )
-        except GradingError as exc:
-            print(f"error: {exc}", file=sys.stderr)
-            return 2
-        for row in rows:
-            print(
-                f"{row.student_id:<20} {row.assignment_id:<24} "
-                f"{row.score:g}/{row.max_score:g}  {row.status}"
-            )
-        counts = ", ".join(f"{sum(r.status == s for r in rows)} {s}" for s in STATUSES)
-        print(f"{len(rows)} submissions graded ({counts}); see {args.out / 'grades.csv'}")
-        return 0
+        return grade(args, argv if argv is not None else sys.argv[1:])
     if args.command == "labs":
         from autograder.course import release_lab
 
@@ -75,9 +74,53 @@ def main(argv: list[str] | None = None) -> int:
     if not path.is_file():
         print(f"error: no notebook at {path}", file=sys.stderr)
         return 2
-    results, changed, flagged = check(path.resolve(), args.timeout)
-    print(report(path, results, changed, flagged))
-    return 0 if results and all(r.passed for r in results) else 1
+    run = check(path.resolve(), args.timeout, args.log)
+    print(report(path, run))
+    return 0 if run.passed else 1
+
+
+def grade(args: argparse.Namespace, argv: list[str]) -> int:
+    from autograder.grade import STATUSES, GradingError, Interrupted, grade_class
+
+    students = [s for value in args.student or [] for s in value.split(",") if s.strip()]
+    # Ctrl-C, and SIGTERM (a scheduler, a closed session), stop cleanly, rows kept; also
+    # when started from a shell that had SIGINT ignored (a background job in a script).
+    signal.signal(signal.SIGINT, signal.default_int_handler)
+    signal.signal(signal.SIGTERM, signal.default_int_handler)
+    try:
+        rows = grade_class(
+            args.submissions,
+            args.out,
+            args.assignment,
+            args.workers,
+            args.timeout,
+            args.submission_timeout,
+            resume=args.resume,
+            students=[s.strip() for s in students],
+            scheduler=args.scheduler,
+        )
+    except GradingError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
+    except Interrupted as exc:
+        again = ["python", "-m", "autograder", *argv]
+        if "--resume" not in again:
+            again.append("--resume")
+        print(
+            f"\nstopped: {exc.done} of {exc.total} submission(s) graded in this run; every "
+            f"finished row is saved in {args.out}. To grade the rest:\n  {shlex.join(again)}",
+            file=sys.stderr,
+        )
+        return 130
+    for row in rows:
+        if row.status != "ok":
+            print(
+                f"{row.student_id:<20} {row.assignment_id:<24} "
+                f"{row.score:g}/{row.max_score:g}  {row.status}"
+            )
+    counts = ", ".join(f"{sum(r.status == s for r in rows)} {s}" for s in STATUSES)
+    print(f"{len(rows)} submissions graded ({counts}); see {args.out / 'grades.csv'}")
+    return 0
 
 
 if __name__ == "__main__":

@@ -1,7 +1,7 @@
 """Student cells that reach into the grading code, found by reading them (not running).
 
 The hidden tests run in the student's own kernel, after the student's cells, and call
-``rosbook.checks`` & co. A cell that rebinds those names, assigns to their attributes
+``rosbook.labs.probes`` & co. A cell that rebinds those names, assigns to their attributes
 (``checks.assert_sequence = lambda *a: None``), goes through ``setattr``/``sys.modules``
 /``builtins``, or hides code in ``exec``/``eval`` could make failing work pass. Nothing
 in one kernel can stop that for certain, so the grader reads every cell the student
@@ -12,6 +12,8 @@ what the checks gave. No solution or plain student code uses them.
 from __future__ import annotations
 
 import ast
+import importlib.util
+import sys
 from collections.abc import Iterator
 
 import nbformat
@@ -39,6 +41,30 @@ def _imported_names(tree: ast.AST) -> set[str]:
         elif isinstance(node, ast.ImportFrom) and _grading_module(node.module):
             names.update(alias.asname or alias.name for alias in node.names)
     return names
+
+
+#: ROS 2 Python packages that tutorials import from, installed here or not.
+ROS_PACKAGES = ("launch", "launch_ros", "launch_xml", "launch_yaml", "rclpy", "ament_index_python")
+
+
+def _library_import(node: ast.Import | ast.ImportFrom, alias: ast.alias) -> bool:
+    """``from launch import LaunchDescription`` (copied from a ROS tutorial): a name
+    imported under its own name from a library (a ROS 2 package, the standard library
+    or an installed package, never the student's folder) is honest code. An alias
+    (``import os as checks``), a relative import or an unknown module is not."""
+    if isinstance(node, ast.ImportFrom) and node.level:
+        return False
+    if alias.asname not in (None, alias.name.split(".")[-1]):
+        return False
+    module = node.module if isinstance(node, ast.ImportFrom) else alias.name
+    top = (module or "").split(".")[0]
+    if top in ROS_PACKAGES or top in sys.stdlib_module_names:
+        return True
+    try:
+        spec = importlib.util.find_spec(top)
+    except (ImportError, ValueError):
+        return False
+    return spec is not None and "site-packages" in (spec.origin or "")
 
 
 def _root(node: ast.AST) -> str | None:
@@ -92,7 +118,11 @@ def findings(source: str, protected: set[str]) -> list[tuple[int, str]]:
             for alias in node.names:
                 bound = alias.asname or alias.name.split(".")[0]
                 source_module = module or alias.name
-                if bound in protected - {"builtins"} and not _grading_module(source_module):
+                if (
+                    bound in protected - {"builtins"}
+                    and not _grading_module(source_module)
+                    and not _library_import(node, alias)
+                ):
                     found.append((line, f"rebinds {bound} by an import"))
         if isinstance(node, ast.FunctionDef | ast.AsyncFunctionDef | ast.ClassDef):
             if node.name in protected:

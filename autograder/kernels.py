@@ -1,31 +1,64 @@
-"""The kernel manager the grader and the self-check run notebooks with.
+"""The kernel manager the grader and the self-check run notebooks with: sandboxed.
 
-jupyter_client's default transport is TCP on localhost: it picks five free ports, then
-the kernel binds them, so two kernels starting at once (``--workers 2``) can race for
-a port and one dies with "Address already in use"; and ipykernel warns on the terminal
-that the connection is not encrypted. Over Unix sockets (``ipc``) neither happens. The
-sockets must be named by an absolute path (by default they are relative to the
-process's folder, and the kernel runs in the notebook's): this manager names them
-after its connection file, which is unique per kernel.
+Every kernel runs in a sandbox (``autograder/sandbox.py``): the notebook's folder is
+copied into the sandbox's home, and the kernel sees nothing of the grader's. It talks
+to the grader over Unix sockets (``ipc``; TCP would need the grader inside the
+sandbox's network): the kernel binds them in a small tmpfs of its own
+(``/run/kernel``), and the grader reaches them through ``/proc/<sandbox>/root``, so
+nothing the kernel can write lives on the host's disk. A folder of the grader's own
+(``rosbook-kernel-*``, never visible inside) holds the connection files and a link to
+the sockets. Interrupts are sent as messages: a signal would reach ``bwrap``, not the
+kernel.
+
+``CappedExecute`` is nbgrader's ``Execute`` keeping at most ``Limits.output`` bytes of
+output per cell, so a cell that prints 200 MB neither fills the grader's memory nor
+the feedback page.
 """
 
 from __future__ import annotations
 
+import json
 import os
+import shutil
+import subprocess
+import sys
 import tempfile
-import uuid
+import threading
+from pathlib import Path
+from typing import Any
 
 from jupyter_client import AsyncKernelManager
-from jupyter_core.paths import jupyter_runtime_dir
-from traitlets import default
+from nbformat import NotebookNode
+from nbformat.v4 import new_output
+from nbgrader.preprocessors import Execute
+from traitlets import Bool, Integer, default
 
-#: Longest path a Unix socket may have (sun_path is 108 bytes on Linux), with room for
-#: the "-ipc-<n>" the sockets add to the connection file's name.
-_SOCKET_PATH_MAX = 100
+from autograder import sandbox
+
+#: Inside the sandbox: where the kernel's sockets and connection file are.
+KERNEL_DIR = "/run/kernel"
+#: Bytes of the kernel's own stdout/stderr (not a cell's output) kept in the log.
+KERNEL_LOG_MAX = 64 << 10
+
+
+def _copy_capped(stream: Any, limit: int) -> None:
+    """Copy the kernel's raw output to the grader's log, ``limit`` bytes at most."""
+    kept = 0
+    for chunk in iter(lambda: stream.read1(65536), b""):
+        if kept < limit:
+            sys.stderr.write(chunk[: limit - kept].decode(errors="replace"))
+            sys.stderr.flush()
+            kept += len(chunk)
+    stream.close()
 
 
 class IpcKernelManager(AsyncKernelManager):
-    """An ``AsyncKernelManager`` on Unix sockets named after its own connection file."""
+    """An ``AsyncKernelManager`` whose kernel runs sandboxed, on Unix sockets."""
+
+    #: The kernel's working folder seen from outside its sandbox (set once started).
+    sandbox_folder: str | None = None
+
+    limits = sandbox.Limits()
 
     @default("transport")
     def _transport_default(self) -> str:
@@ -33,9 +66,105 @@ class IpcKernelManager(AsyncKernelManager):
 
     @default("connection_file")
     def _connection_file_default(self) -> str:
-        name = f"kernel-{uuid.uuid4()}.json"
-        folder = jupyter_runtime_dir()
-        if len(os.path.join(folder, name)) > _SOCKET_PATH_MAX:
-            folder = tempfile.gettempdir()
-        os.makedirs(folder, exist_ok=True)
-        return os.path.join(folder, name)
+        self._private = Path(tempfile.mkdtemp(prefix="rosbook-kernel-"))
+        return str(self._private / "kernel.json")
+
+    @default("ip")
+    def _ip_default(self) -> str:
+        # "sockets" becomes a link to /proc/<sandbox>/root/run/kernel once it started
+        return str(Path(self.connection_file).parent / "sockets" / "k")
+
+    async def _async_pre_start_kernel(self, **kw: Any) -> tuple[list[str], dict[str, Any]]:
+        kernel_cmd, kw = await super()._async_pre_start_kernel(**kw)
+        assert self.kernel_spec is not None
+        self.kernel_spec.interrupt_mode = "message"
+        return kernel_cmd, kw
+
+    async def _async_launch_kernel(self, kernel_cmd: list[str], **kw: Any) -> None:
+        private = Path(self.connection_file).parent
+        network = sandbox.current_network()
+        self._own_network = None if network is not None else sandbox.Network()
+        network = network or self._own_network
+        inside = dict(json.loads(Path(self.connection_file).read_text()), ip=f"{KERNEL_DIR}/k")
+        inside_file = private / "inside.json"
+        inside_file.write_text(json.dumps(inside))
+        os.chmod(inside_file, 0o644)
+        cmd = [
+            f"{KERNEL_DIR}/kernel.json" if arg == self.connection_file else arg
+            for arg in kernel_cmd
+        ]
+        # ipykernel rewrites its connection file: it gets a copy in its tmpfs
+        cmd = [
+            "/bin/sh",
+            "-c",
+            f'cp /run/rosbook/kernel.json {KERNEL_DIR}/kernel.json && exec "$@"',
+            "sh",
+            *cmd,
+        ]
+        seed = kw.pop("cwd", None)
+        launch = sandbox.prepare(
+            cmd,
+            network=network,
+            private=private,
+            env=kw.pop("env", None) or os.environ,
+            seed=seed,
+            limits=self.limits,
+            tmpfs=[KERNEL_DIR],
+            files={"/run/rosbook/kernel.json": inside_file},
+        )
+        kw.update(
+            env=launch.env,
+            pass_fds=launch.pass_fds,
+            stdout=subprocess.PIPE,
+            stderr=subprocess.STDOUT,
+            cwd="/",
+        )
+        try:
+            await super()._async_launch_kernel(launch.argv, **kw)
+        finally:
+            launch.close_fds()
+        proc = self.provisioner.process  # type: ignore[union-attr]
+        threading.Thread(
+            target=_copy_capped, args=(proc.stdout, KERNEL_LOG_MAX), daemon=True
+        ).start()
+        pid = sandbox.sandbox_pid(launch, proc)
+        os.symlink(f"/proc/{pid}/root{KERNEL_DIR}", private / "sockets")
+        #: The kernel's working folder as the grader (and its judge) see it from outside.
+        self.sandbox_folder = (
+            f"/proc/{pid}/root{sandbox.HOME}/{Path(seed).name}" if seed is not None else None
+        )
+
+    async def _async_cleanup_resources(self, restart: bool = False) -> None:
+        await super()._async_cleanup_resources(restart)
+        if getattr(self, "_own_network", None) is not None:
+            self._own_network.close()
+            self._own_network = None
+        if not restart and getattr(self, "_private", None) is not None:
+            shutil.rmtree(self._private, ignore_errors=True)
+
+    _launch_kernel = _async_launch_kernel  # type: ignore[assignment]
+    cleanup_resources = _async_cleanup_resources  # type: ignore[assignment]
+
+
+class CappedExecute(Execute):  # type: ignore[misc]
+    """nbgrader's ``Execute`` keeping at most ``max_output_bytes`` of output per cell."""
+
+    max_output_bytes = Integer(sandbox.Limits().output).tag(config=True)
+    # A cell that printed far more than it keeps leaves its output queued after its
+    # reply; the cut output is dropped and the notebook goes on (nbgrader would abandon
+    # the whole notebook: 0 points earned elsewhere).
+    raise_on_iopub_timeout = Bool(False).tag(config=True)
+
+    def output(
+        self, outs: list[NotebookNode], msg: dict[str, Any], display_id: str | None, cell_index: int
+    ) -> NotebookNode | None:
+        used: dict[int, int] = self.__dict__.setdefault("_output_bytes", {})
+        size = len(json.dumps(msg.get("content", {})))
+        if used.get(cell_index, 0) + size <= self.max_output_bytes:
+            used[cell_index] = used.get(cell_index, 0) + size
+            return super().output(outs, msg, display_id, cell_index)  # type: ignore[no-any-return]
+        if used.get(cell_index) != -1:  # the first output past the cap: say so, once
+            used[cell_index] = -1
+            text = f"\n[output truncated: a cell keeps at most {self.max_output_bytes} bytes]\n"
+            outs.append(new_output("stream", name="stdout", text=text))
+        return None

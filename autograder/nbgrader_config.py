@@ -20,6 +20,11 @@ c.ClearSolutions.text_stub = "YOUR ANSWER HERE"
 c.Execute.timeout = 30
 c.Execute.interrupt_on_timeout = True
 c.Execute.allow_errors = True
+# An interrupted cell may take a while to stop (a spin that waits for its next event, a
+# launch shutting down): keep grading the next cells instead of abandoning the notebook
+# when its last output is late (nbgrader's default raises after 4 s).
+c.Execute.raise_on_iopub_timeout = False
+c.Execute.iopub_timeout = 10
 
 # A test cell the student deleted is put back (and the submission marked tampered).
 c.OverwriteCells.add_missing_cells = True
@@ -37,3 +42,15 @@ c.GenerateFeedback.preprocessors = [
 # starting at once cannot race for a port, and ipykernel does not warn about
 # unencrypted TCP (autograder/kernels.py).
 c.Execute.kernel_manager_class = "autograder.kernels.IpcKernelManager"
+
+# Autograding runs every kernel sandboxed (the manager above) and keeps a bounded
+# amount of each cell's output (autograder/kernels.py: CappedExecute).
+c.Autograde.autograde_preprocessors = [
+    "autograder.kernels.CappedExecute",
+    "nbgrader.preprocessors.IgnorePattern",
+    "nbconvert.preprocessors.ClearMetadataPreprocessor",
+    "nbgrader.preprocessors.LimitOutput",
+    "nbgrader.preprocessors.SaveAutoGrades",
+    "nbgrader.preprocessors.AssignLatePenalties",
+    "nbgrader.preprocessors.CheckCellMetadata",
+]

@@ -24,9 +24,11 @@ import nbgrader.api
 from nbgrader.api import Gradebook, MissingEntry
 from nbgrader.utils import compute_checksum
 
+from autograder import sandbox
 from autograder.course import api
 from autograder.feedback import add_notice, is_test_cell
 from autograder.integrity import grading_code_changes
+from autograder.verdicts import Judged, apply_verdicts, judged_preprocessors, judging
 
 
 @dataclass
@@ -71,6 +73,24 @@ def locked_cell_changes(
     return changed
 
 
+def drop_duplicate_grade_ids(notebook: nbformat.NotebookNode) -> bool:
+    """A copied cell (JupyterLab's copy keeps nbgrader's metadata) becomes a plain cell.
+
+    nbgrader refuses a notebook in which two cells share a grade_id; the copy still runs
+    in its place, so a class defined again in it is the one the checks see. Whether
+    any cell was changed."""
+    seen: set[str] = set()
+    changed = False
+    for cell in notebook.cells:
+        grade_id = cell.get("metadata", {}).get("nbgrader", {}).get("grade_id")
+        if grade_id in seen:
+            del cell.metadata["nbgrader"]
+            changed = True
+        elif grade_id:
+            seen.add(grade_id)
+    return changed
+
+
 def timed_out_cells(notebook: nbformat.NotebookNode) -> list[str]:
     """Cells nbgrader interrupted because they ran past the per-cell limit."""
     found = []
@@ -97,22 +117,88 @@ def exit_calls(notebook: nbformat.NotebookNode) -> list[str]:
     return found
 
 
+#: A submitted notebook larger than this is refused (the lab's own is ~50 KB).
+MAX_NOTEBOOK_BYTES = 20 << 20
+
+
+def refusal(folder: Path, notebook: str) -> str | None:
+    """Why a submission is not graded at all (a link, a huge file), or None.
+
+    A link is never followed: to /etc/passwd it would show the grader's file in the
+    feedback, to another student's notebook it would earn their marks.
+    """
+    student = folder.parent
+    for path in (student, folder, folder / notebook):
+        if path.is_symlink():
+            return (
+                f"{path.relative_to(student.parent)} is a symbolic link, not a file you "
+                "wrote; links are never followed. Submit the notebook itself."
+            )
+    size = (folder / notebook).stat().st_size
+    if size > MAX_NOTEBOOK_BYTES:
+        return (
+            f"{notebook} is {size / 2**20:.0f} MB, more than the {MAX_NOTEBOOK_BYTES >> 20} MB "
+            "a submission may be; clear its outputs (Kernel > Restart and Clear Outputs) "
+            "and save it again."
+        )
+    return None
+
+
+def deduplicate_grade_ids(notebook: nbformat.NotebookNode) -> list[str]:
+    """Keep nbgrader's metadata on the first cell of each grade_id only.
+
+    JupyterLab's copy and paste keeps a cell's metadata, so honest work can hold two
+    cells with one grade_id, which nbgrader refuses (the whole notebook scores 0).
+    Every copy still runs, in order, as a plain cell. Returns the grade_ids copied.
+    """
+    seen, copied = set(), []
+    for cell in notebook.cells:
+        gid = cell.get("metadata", {}).get("nbgrader", {}).get("grade_id")
+        if gid is None:
+            continue
+        if gid in seen:
+            del cell.metadata["nbgrader"]
+            copied.append(gid)
+        seen.add(gid)
+    return copied
+
+
 def grade(job: Job) -> Result:
     scratch = Path(job.scratch)
     template = Path(job.template)
+    refused = refusal(Path(job.submission_dir), job.notebook)
+    if refused:
+        return Result(0, 0, "error", refused)
     submitted_dir = scratch / "submitted" / job.student_id / job.assignment_id
-    shutil.copytree(job.submission_dir, submitted_dir)
+    shutil.copytree(job.submission_dir, submitted_dir, symlinks=True)
     shutil.copy(template / "gradebook.db", scratch / "gradebook.db")
     notebook_path = submitted_dir / job.notebook
+    prepared = nbformat.read(notebook_path, as_version=4)
+    if deduplicate_grade_ids(prepared):
+        nbformat.write(prepared, notebook_path)
 
     released = nbformat.read(template / "release" / job.assignment_id / job.notebook, as_version=4)
     submitted = nbformat.read(notebook_path, as_version=4)
+    if drop_duplicate_grade_ids(submitted):
+        nbformat.write(submitted, notebook_path)
     tampered = locked_cell_changes(submitted, released)
     meddling = grading_code_changes(submitted, released)
 
-    grader = api(scratch, **{"Execute.timeout": job.cell_timeout})
+    grader = api(
+        scratch,
+        **{
+            "Execute.timeout": job.cell_timeout,
+            "Autograde.autograde_preprocessors": judged_preprocessors(),
+        },
+    )
     started = time.monotonic()
-    outcome = grader.autograde(job.assignment_id, job.student_id, force=True, create=True)
+    # The kernel's only network; the judge joins it (verdicts.Judging).
+    with (
+        sandbox.Network() as network,
+        sandbox.using(network),
+        judging(job.assignment_id) as run,
+    ):
+        outcome = grader.autograde(job.assignment_id, job.student_id, force=True, create=True)
     print(f"[grader] autograde took {time.monotonic() - started:.2f} s", flush=True)
     if not outcome["success"]:
         log = outcome.get("log", "") + outcome.get("error", "")
@@ -130,19 +216,26 @@ def grade(job: Job) -> Result:
         tail = "\n".join(log.strip().splitlines()[-12:])
         return Result(0, 0, "error", f"nbgrader could not grade this notebook:\n{tail}")
 
-    with Gradebook(f"sqlite:///{scratch / 'gradebook.db'}") as gb:
-        try:
-            sub = gb.find_submission_notebook(
-                Path(job.notebook).stem, job.assignment_id, job.student_id
-            )
-        except MissingEntry:
-            return Result(0, 0, "error", "nbgrader recorded no grades for this notebook")
+    gradebook = scratch / "gradebook.db"
+    try:
+        judged = apply_verdicts(
+            gradebook, job.assignment_id, job.student_id, Path(job.notebook).stem, run
+        )
+    except MissingEntry:
+        return Result(0, 0, "error", "nbgrader recorded no grades for this notebook")
+    with Gradebook(f"sqlite:///{gradebook}") as gb:
+        sub = gb.find_submission_notebook(
+            Path(job.notebook).stem, job.assignment_id, job.student_id
+        )
         score, max_score = float(sub.score), float(sub.max_score)
 
     autograded = nbformat.read(
         scratch / "autograded" / job.student_id / job.assignment_id / job.notebook, as_version=4
     )
-    slow = timed_out_cells(autograded)
+    # A judged test cell's run in the kernel is only a hint for the student: when it is
+    # slow, the judge's verdict still stands, and the machine's speed decides nothing.
+    slow = [c for c in timed_out_cells(autograded) if c not in run.checks]
+    slow = list(dict.fromkeys(slow + judged.timed_out))
 
     started = time.monotonic()
     feedback = grader.generate_feedback(job.assignment_id, job.student_id, force=True)
@@ -176,6 +269,7 @@ def grade(job: Job) -> Result:
         add_notice(page, "Cells interrupted", message, status)
     else:
         status, message = "ok", ""
+    status, message = judged_status(page, judged, status, message)
     if meddling:  # tampering too, though no locked cell changed: for a person to judge
         status = "tampered"
         said = (
@@ -190,6 +284,29 @@ def grade(job: Job) -> Result:
     destination.parent.mkdir(parents=True, exist_ok=True)
     shutil.copy(page, destination)
     return Result(score, max_score, status, message)
+
+
+def judged_status(page: Path, judged: Judged, status: str, message: str) -> tuple[str, str]:
+    """Status and message once the judge's verdicts are in: a test cell whose output
+    claimed a pass the judge did not give is named, and the submission is 'tampered'."""
+    if judged.broken:  # the grader's own failure: never an accusation
+        said = (
+            "The grader could not check these cells, so they score nothing until your "
+            "instructor regrades: "
+            + "; ".join(f"{gid} ({judged.messages[gid]})" for gid in judged.broken)
+        )
+        add_notice(page, "Cells the grader could not check", said, "error")
+        status, message = "error", f"{message} {said}".strip()
+    if not judged.claimed:
+        return status, message
+    said = (
+        "These test cells reported a pass in your notebook, but the grader's own check "
+        "of your code failed, so they score nothing: "
+        + "; ".join(f"{gid} ({judged.messages[gid]})" for gid in judged.claimed)
+        + ". Your instructor sees this submission marked 'tampered'."
+    )
+    add_notice(page, "Checks that passed only inside your notebook", said, "tampered")
+    return "tampered", f"{message} {said}".strip()
 
 
 # nbgrader asks the `alembic` command for its schema head every time it opens a

@@ -1,4 +1,9 @@
-"""Run the benchmarks: ``python -m benchmarks [topic ...]``."""
+"""Run the benchmarks: ``python -m benchmarks [topic ...]``.
+
+Every topic runs, whatever the others do: a topic whose ``run()`` raises is reported
+as failed with its error (the figures it yielded before failing are kept), the table
+and ``_build/bench.json`` are still written, and the command exits 1.
+"""
 
 from __future__ import annotations
 
@@ -6,11 +11,13 @@ import importlib
 import json
 import pkgutil
 import sys
+import time
+import traceback
 from dataclasses import asdict
 from pathlib import Path
+from typing import Any
 
 import benchmarks
-from benchmarks import Figure
 
 OUTPUT = Path(__file__).resolve().parent.parent / "_build" / "bench.json"
 
@@ -23,28 +30,63 @@ def topics() -> list[str]:
     )
 
 
-def main(argv: list[str]) -> int:
+def failure(topic: str, error: BaseException) -> dict[str, Any]:
+    """The record of a topic that failed: its name, no value, and the error."""
+    return {
+        "name": f"{topic}: failed",
+        "value": None,
+        "unit": "",
+        "topic": topic,
+        "error": "".join(traceback.format_exception_only(type(error), error)).strip(),
+    }
+
+
+def run_topic(topic: str) -> list[dict[str, Any]]:
+    """The records of one topic: its figures, and a failure record if it raised."""
+    records: list[dict[str, Any]] = []
+    start = time.monotonic()
+    try:
+        module = importlib.import_module(f"benchmarks.bench_{topic}")
+        for figure in module.run():
+            print(f"   {figure.name:<48} {figure.value:>12.4g} {figure.unit}", flush=True)
+            records.append(dict(asdict(figure), topic=topic))
+    except Exception as error:  # noqa: BLE001 - any failure is reported, the others still run
+        traceback.print_exc()
+        records.append(failure(topic, error))
+        print(f"   FAILED after {time.monotonic() - start:.0f} s: {records[-1]['error']}")
+    return records
+
+
+def show(record: dict[str, Any]) -> str:
+    if record.get("error"):
+        return f"{record['name']:<51} {'FAILED':>12} {record['error'].splitlines()[-1]}"
+    return f"{record['name']:<51} {record['value']:>12.4g} {record['unit']}"
+
+
+def main(argv: list[str], output: Path = OUTPUT) -> int:
     chosen = argv or topics()
     unknown = sorted(set(chosen) - set(topics()))
     if unknown:
         print(f"unknown benchmark(s) {unknown}; there are: {topics()}", file=sys.stderr)
         return 2
-    figures: list[Figure] = []
+    records: list[dict[str, Any]] = []
     for topic in chosen:
-        module = importlib.import_module(f"benchmarks.bench_{topic}")
         print(f"-- {topic}", flush=True)
-        for figure in module.run():
-            print(f"   {figure.name:<48} {figure.value:>12.4g} {figure.unit}", flush=True)
-            figures.append(figure)
-    OUTPUT.parent.mkdir(parents=True, exist_ok=True)
-    previous = json.loads(OUTPUT.read_text()) if OUTPUT.exists() and argv else []
-    names = {f.name for f in figures}
-    merged = [f for f in previous if f["name"] not in names] + [asdict(f) for f in figures]
-    OUTPUT.write_text(json.dumps(merged, indent=1) + "\n")
+        records += run_topic(topic)
+    output.parent.mkdir(parents=True, exist_ok=True)
+    previous = json.loads(output.read_text()) if output.exists() and argv else []
+    names = {r["name"] for r in records}
+    kept = [r for r in previous if r["name"] not in names and r.get("topic") not in chosen]
+    merged = kept + records
+    output.write_text(json.dumps(merged, indent=1) + "\n")
     print(f"\n{'figure':<51} {'value':>12} unit")
-    for f in merged:
-        print(f"{f['name']:<51} {f['value']:>12.4g} {f['unit']}")
-    print(f"written to {OUTPUT}")
+    for record in merged:
+        print(show(record))
+    print(f"written to {output}")
+    failed = [r["topic"] for r in records if r.get("error")]
+    if failed:
+        print(f"{len(failed)} benchmark topic(s) failed: {', '.join(failed)}", file=sys.stderr)
+        return 1
     return 0
 
 

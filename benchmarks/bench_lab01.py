@@ -3,10 +3,15 @@
 Twenty correct submissions are graded twice in the same run: by ``python -m autograder
 grade --workers 2`` (isolated, parallel, with feedback) and by one plain ``nbgrader
 autograde`` of all twenty (sequential, no feedback). Target: ratio at most 0.6.
+
+The sandbox's cost is measured on its own, in the same run: a kernel started, made to
+create a ROS node, and shut down, sandboxed (``IpcKernelManager``) and plain
+(jupyter_client's ``AsyncKernelManager``), median of three each. Target: ratio <= 1.2.
 """
 
 from __future__ import annotations
 
+import asyncio
 import shutil
 import statistics
 import subprocess
@@ -15,10 +20,13 @@ import tempfile
 import time
 from pathlib import Path
 
+from jupyter_client import AsyncKernelManager
+
 from autograder.config import PACKAGE_DIR, SOLUTIONS
 from autograder.grade import grade_class
+from autograder.kernels import IpcKernelManager
 from benchmarks import Figure
-from rosbook.isolation import run_isolated
+from rosbook.runtime.isolation import run_isolated
 from tests.labtools import answered, submit
 
 LAB = "lab01_nodes_topics"
@@ -44,6 +52,37 @@ def plain_nbgrader_seconds(submissions: Path, work: Path) -> float:
     return elapsed
 
 
+KERNEL_WORK = (
+    "import rclpy\nrclpy.init()\nrclpy.create_node('bench').destroy_node()\nrclpy.shutdown()"
+)
+
+
+async def kernel_round_trip(manager: AsyncKernelManager, folder: Path) -> float:
+    """Seconds to start ``manager``'s kernel in ``folder``, run ``KERNEL_WORK``, stop it."""
+    start = time.monotonic()
+    await manager.start_kernel(cwd=str(folder))
+    client = manager.client()
+    client.start_channels()
+    try:
+        await client.wait_for_ready(timeout=300)
+        reply = await client.execute_interactive(KERNEL_WORK, timeout=300)
+        if reply["content"]["status"] != "ok":
+            raise RuntimeError(f"the benchmark kernel failed: {reply['content']}")
+    finally:
+        client.stop_channels()
+        await manager.shutdown_kernel()
+    return time.monotonic() - start
+
+
+def kernel_seconds(folder: Path) -> tuple[float, float]:
+    """Median round trips (sandboxed, plain), interleaved so both see the same load."""
+    sandboxed, plain = [], []
+    for _ in range(3):
+        sandboxed.append(asyncio.run(kernel_round_trip(IpcKernelManager(), folder)))
+        plain.append(asyncio.run(kernel_round_trip(AsyncKernelManager(), folder)))
+    return statistics.median(sandboxed), statistics.median(plain)
+
+
 def run() -> list[Figure]:
     with tempfile.TemporaryDirectory(prefix="bench-lab01-") as tmp:
         work = Path(tmp)
@@ -58,7 +97,13 @@ def run() -> list[Figure]:
         if bad:
             raise RuntimeError(f"benchmark submissions did not all score full marks: {bad}")
         baseline = plain_nbgrader_seconds(submissions, work)
+        folder = work / "kernel"
+        folder.mkdir()
+        sandboxed, plain = kernel_seconds(folder)
     return [
+        Figure("kernel start + ROS node + stop, sandboxed", sandboxed, "s"),
+        Figure("kernel start + ROS node + stop, plain", plain, "s"),
+        Figure("kernel sandboxed vs plain", sandboxed / plain, "ratio"),
         Figure("lab01 seconds per submission", statistics.median(r.seconds for r in rows), "s"),
         Figure("lab01 grading 20 submissions, --workers 2", ours, "s"),
         Figure("lab01 sequential nbgrader autograde of 20", baseline, "s"),

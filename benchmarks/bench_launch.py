@@ -11,12 +11,12 @@ import time
 from std_msgs.msg import String
 
 from benchmarks import Figure
-from rosbook.checks import Probe
-from rosbook.isolation import isolated_environ
-from rosbook.launch import LaunchDescription, Node, launch
-from rosbook.launch_checks import add_reference_package
-from rosbook.session import ros
-from rosbook.workspace import Workspace
+from rosbook.labs.lab06 import add_reference_package
+from rosbook.labs.probes import Probe
+from rosbook.launch.launcher import LaunchDescription, Node, launch
+from rosbook.launch.workspace import Workspace
+from rosbook.runtime.isolation import isolated_environ
+from rosbook.runtime.session import ros
 
 
 def two_robots() -> LaunchDescription:

@@ -3,7 +3,7 @@
 - "Part I build": seconds to build only Part I's chapters (a TOC of that part alone),
   every cell executed with a fresh cache into a temporary directory, in a ROS domain of
   its own.
-- "topic hz accuracy on 10 Hz": percent error of ``rosbook.graph.hz`` against a real
+- "topic hz accuracy on 10 Hz": percent error of ``rosbook.runtime.graph.hz`` against a real
   publisher process whose wall-clock timer fires at 10 Hz (target: within 2 %).
 """
 
@@ -19,7 +19,7 @@ from pathlib import Path
 import yaml
 
 from benchmarks import Figure
-from rosbook import bookpages
+from rosbook.book import pages as bookpages
 
 ROOT = Path(__file__).resolve().parent.parent
 HZ_SECONDS = 10.0
@@ -74,9 +74,9 @@ def build_seconds() -> float:
 
 def hz_error_percent() -> tuple[float, float]:
     """(percent error, measured rate) of ``graph.hz`` on a 10 Hz publisher process."""
-    from rosbook import graph
     from rosbook.cli import cli_node
-    from rosbook.isolation import isolated_environ
+    from rosbook.runtime import graph
+    from rosbook.runtime.isolation import isolated_environ
 
     with isolated_environ(), tempfile.TemporaryDirectory(prefix="bench_hz_") as tmp:
         script = Path(tmp) / "beacon.py"

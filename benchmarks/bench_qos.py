@@ -17,9 +17,9 @@ from rclpy.qos import DurabilityPolicy, QoSProfile
 from std_msgs.msg import String
 
 from benchmarks import Figure
-from rosbook import qos
-from rosbook.isolation import isolated_environ
-from rosbook.session import ros
+from rosbook.demos import qos
+from rosbook.runtime.isolation import isolated_environ
+from rosbook.runtime.session import ros
 
 LATENCY_MESSAGES = 200
 

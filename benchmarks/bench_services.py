@@ -1,7 +1,7 @@
 """Service round trip between two processes, and the grading time of a lab 3 submission.
 
 - "service round trip": median wall time of one ``std_srvs/srv/Trigger`` call from
-  this process to ``rosbook.demo_nodes`` in another (request out, response in), with
+  this process to ``rosbook.demos.nodes`` in another (request out, response in), with
   a client made once, over real DDS on localhost. A few milliseconds is the target.
 - "lab03 seconds per submission": wall time of ``autograder`` grading lab 3's solution
   notebook (kernel start, every cell, feedback), one worker, divided by the number of
@@ -25,8 +25,8 @@ from std_srvs.srv import Trigger
 from autograder.config import LABS, SOLUTIONS
 from autograder.grade import grade_class
 from benchmarks import Figure
-from rosbook.isolation import isolated_environ
-from rosbook.session import ros
+from rosbook.runtime.isolation import isolated_environ
+from rosbook.runtime.session import ros
 
 CALLS = 200
 SUBMISSIONS = 2
@@ -36,7 +36,7 @@ LAB = "lab03_services_actions"
 def round_trip_ms(calls: int = CALLS) -> float:
     """Median milliseconds per Trigger call to a server in another process."""
     server = subprocess.Popen(
-        [sys.executable, "-m", "rosbook.demo_nodes"],
+        [sys.executable, "-m", "rosbook.demos.nodes"],
         stdout=subprocess.DEVNULL,
         stderr=subprocess.DEVNULL,
     )
@@ -45,7 +45,7 @@ def round_trip_ms(calls: int = CALLS) -> float:
         node = Node("bench_client")
         client = node.create_client(Trigger, "what_time")
         if not client.wait_for_service(timeout_sec=15.0):
-            raise RuntimeError("rosbook.demo_nodes did not start serving what_time")
+            raise RuntimeError("rosbook.demos.nodes did not start serving what_time")
         times = []
         for _ in range(calls + 10):
             start = time.perf_counter()

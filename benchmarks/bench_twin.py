@@ -10,8 +10,9 @@ from __future__ import annotations
 import time
 
 from benchmarks import Figure
-from rosbook import twin, viz
-from rosbook.sim import DiffDriveSim
+from rosbook.sim.physics import DiffDriveSim
+from rosbook.viz import scene as viz
+from rosbook.viz import twin
 
 SECONDS = 26.0
 KB = 1e3

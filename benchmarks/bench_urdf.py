@@ -2,8 +2,8 @@
 
 Target: under 2 MB for what the page adds beyond the book's theme (its HTML plus the
 MeshCat viewer script, which is shared by every page with a scene instead of being
-inlined in each). The theme's own assets (about 1.8 MB, mostly its icon font script)
-are loaded by every page of the book and are reported separately.
+inlined in each). The theme's own assets are loaded by every page of the book and are
+reported separately (bench_book measures what a browser transfers).
 """
 
 from __future__ import annotations
@@ -12,8 +12,8 @@ import tempfile
 from pathlib import Path
 
 from benchmarks import Figure
-from rosbook import bookpages
-from rosbook.viz import VIEWER_JS
+from rosbook.book import pages as bookpages
+from rosbook.viz.scene import VIEWER_JS
 
 CHAPTER = "book/urdf_digital_twin"
 MB = 1e6

@@ -2,14 +2,30 @@
 
 from __future__ import annotations
 
+import hashlib
+import os
+import shutil
 from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
 
-from rosbook import bookpages
-from rosbook.isolation import isolated_environ
-from rosbook.session import Session, ros
+from rosbook.book import pages as bookpages
+from rosbook.book.pages import ROOT
+from rosbook.runtime.isolation import isolated_environ
+from rosbook.runtime.session import Session, ros
+
+#: Fixtures that take minutes or load the machine: the whole book built, a browser, a
+#: lab class graded, a colcon workspace built, the CLI run beside busy processes.
+SLOW_FIXTURES = {"built_book", "browser", "graded", "round_trip", "scaffolded", "loaded_runs"}
+
+
+def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
+    """A test that uses a slow fixture is marked slow: `make test-fast` leaves it out
+    without each such test having to say so."""
+    for item in items:
+        if SLOW_FIXTURES & set(getattr(item, "fixturenames", ())):
+            item.add_marker(pytest.mark.slow)
 
 
 @pytest.fixture(scope="session", autouse=True)
@@ -28,8 +44,57 @@ def session() -> Iterator[Session]:
     ros.reset()
 
 
+#: Executed chapters kept between test runs: ``<BOOK_CACHE>/<key>/`` is jupyter-cache's
+#: folder, which executes a chapter again only when its code changed; the key changes
+#: with the library, the dependencies and the book's settings, which outputs depend on.
+BOOK_CACHE = ROOT / "_build" / "test-book-cache"
+#: What executed chapters depend on besides their own code.
+BOOK_INPUTS = ["rosbook", "requirements.txt", "pyproject.toml", "_config.yml"]
+
+
+def book_cache_key(root: Path = ROOT) -> str:
+    """A hash of every file the chapters' outputs depend on besides their own code."""
+    digest = hashlib.sha256()
+    for entry in BOOK_INPUTS:
+        path = root / entry
+        files = sorted(path.rglob("*")) if path.is_dir() else [path]
+        for file in files:
+            if file.is_file() and "__pycache__" not in file.parts:
+                digest.update(file.relative_to(root).as_posix().encode() + b"\0")
+                digest.update(file.read_bytes())
+    return digest.hexdigest()[:16]
+
+
+def book_cache() -> Path | None:
+    """This run's execution cache folder (stale ones removed); ``None`` when
+    ``ROSBOOK_BOOK_CACHE=fresh`` asks for every cell to run (``make stress``)."""
+    if os.environ.get("ROSBOOK_BOOK_CACHE") == "fresh":
+        return None
+    folder = BOOK_CACHE / book_cache_key()
+    for stale in BOOK_CACHE.glob("*"):
+        if stale != folder:
+            shutil.rmtree(stale, ignore_errors=True)
+    folder.mkdir(parents=True, exist_ok=True)
+    return folder
+
+
 @pytest.fixture(scope="session")
 def built_book(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    """The whole book built once per test run, as `make book` builds it, from a fresh
-    cache (so every cell runs) in a ROS domain of its own. Returns `_build/html`."""
-    return bookpages.build(tmp_path_factory.mktemp("book"))
+    """The whole book built once per test run, as `make book` builds it, in a ROS domain
+    of its own. Returns `_build/html`. Chapters whose code and inputs are unchanged since
+    an earlier run take their outputs from the kept cache (``book_cache``)."""
+    out = tmp_path_factory.mktemp("book")
+    cache = book_cache()
+    if cache is not None:
+        (out / "_build").mkdir()
+        (out / "_build" / ".jupyter_cache").symlink_to(cache, target_is_directory=True)
+    return bookpages.build(out)
+
+
+@pytest.fixture(scope="session")
+def browser() -> Iterator[object]:
+    """One headless Chromium for the run (see tests/browser.py)."""
+    from browser import chromium
+
+    with chromium() as instance:
+        yield instance

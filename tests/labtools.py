@@ -15,6 +15,7 @@ import nbformat
 
 from autograder.config import LABS, SOLUTIONS
 from autograder.grade import grade_class
+from rosbook.runtime.isolation import RUN_MARKER
 
 
 def notebook_path(lab: str, released: bool = True) -> Path:
@@ -97,3 +98,21 @@ def grade(submissions: Path, out: Path, **kwargs: object) -> dict[tuple[str, str
 
 def feedback(out: Path, student: str, lab: str) -> str:
     return (out / "feedback" / student / lab / f"{lab}.html").read_text()
+
+
+def marked_processes(pid: int) -> list[int]:
+    """Live processes started under a ROS domain that the process ``pid`` reserved.
+
+    A job's token is ``<domain>-<pid of the reserving process>-<random>``.
+    """
+    needle = f"-{pid}-".encode()
+    prefix = RUN_MARKER.encode() + b"="
+    found = []
+    for proc in Path("/proc").glob("[0-9]*"):
+        try:
+            env = proc.joinpath("environ").read_bytes().split(b"\0")
+        except OSError:
+            continue
+        if any(item.startswith(prefix) and needle in item for item in env):
+            found.append(int(proc.name))
+    return found

@@ -9,8 +9,8 @@ import pytest
 from rclpy.node import Node
 from std_msgs.msg import Int64, String
 
-from rosbook import checks
-from rosbook.session import Session
+from rosbook.labs import lab01 as checks
+from rosbook.runtime.session import Session
 
 GOOD_MAIN = """
 import rclpy
@@ -21,6 +21,7 @@ from rclpy.node import Node
 def main(args=None):
     rclpy.init(args=args)
     node = Node('sleeper')
+    node.create_timer(0.1, lambda: print('spinning', flush=True))  # the tests wait for it
     try:
         rclpy.spin(node)
     except (KeyboardInterrupt, ExternalShutdownException):
@@ -71,13 +72,19 @@ def test_sequence_mismatch_messages(got: list[int], message: str) -> None:
         checks.assert_sequence("x", got, [0, 1, 2])
 
 
+def spinning(run: checks.ScriptRun) -> None:
+    """Wait until the script spins (its timer printed): Ctrl-C then reaches rclpy's
+    handler, not an import still under way."""
+    assert run.proc.stdout is not None
+    line = run.proc.stdout.readline()  # the script's own end (EOF) stops a hang
+    assert line == "spinning\n", f"the script did not start spinning: {line!r}"
+
+
 def test_clean_ctrl_c_passes(tmp_path: Path) -> None:
     script = tmp_path / "good.py"
     script.write_text(GOOD_MAIN)
     with checks.run_script(script) as run:
-        import time
-
-        time.sleep(1.0)
+        spinning(run)
         checks.assert_clean_exit(run)
 
 
@@ -89,9 +96,7 @@ def test_old_ctrl_c_pattern_fails_with_the_jazzy_hint(tmp_path: Path) -> None:
         ).replace("rclpy.try_shutdown()", "rclpy.shutdown()")
     )
     with checks.run_script(script) as run:
-        import time
-
-        time.sleep(1.0)
+        spinning(run)
         with pytest.raises(AssertionError, match="ExternalShutdownException"):
             checks.assert_clean_exit(run)
 

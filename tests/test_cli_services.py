@@ -10,20 +10,29 @@ from collections.abc import Iterator
 
 import pytest
 
+from rosbook import ros
 from rosbook.cli import main
+from rosbook.runtime import graph
 
 pytestmark = pytest.mark.filterwarnings("ignore::DeprecationWarning")
 
 
 @pytest.fixture(scope="module")
 def servers() -> Iterator[subprocess.Popen]:
-    """``rosbook.demo_nodes`` (clock_server, countdown_server) as a process of its own."""
+    """``rosbook.demos.nodes`` (clock_server, countdown_server) as a process of its own."""
     process = subprocess.Popen(
-        [sys.executable, "-m", "rosbook.demo_nodes"],
+        [sys.executable, "-m", "rosbook.demos.nodes"],
         stdout=subprocess.DEVNULL,
         stderr=subprocess.PIPE,
         text=True,
     )
+    # The commands report the graph as it is: let the servers be up first (a limit
+    # that only guards a hang).
+    both = {"/clock_server", "/countdown_server"}
+    assert graph.wait_for(lambda g: both <= set(graph.node_names(g)), timeout=60.0), (
+        "rosbook.demos.nodes did not come up"
+    )
+    ros.reset()
     yield process
     process.send_signal(signal.SIGINT)
     try:

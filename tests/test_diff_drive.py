@@ -6,7 +6,7 @@ import math
 
 import pytest
 
-from rosbook.diff_drive import arc_step, body_twist, wheel_speeds, wrap_angle
+from rosbook.sim.diff_drive import arc_step, body_twist, wheel_speeds, wrap_angle
 
 R, L = 0.04, 0.4  # the lecture robot: wheel radius, wheel separation
 

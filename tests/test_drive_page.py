@@ -6,7 +6,9 @@ from pathlib import Path
 
 import pytest
 
-from rosbook import bookpages, robots, twin
+from rosbook import robots
+from rosbook.book import pages as bookpages
+from rosbook.viz import twin
 
 CHAPTER = "book/drive_robot"
 
@@ -35,6 +37,6 @@ def test_the_page_embeds_an_animated_twin_with_the_robots_links(page: str) -> No
 
 
 def test_the_twin_is_light_and_uses_the_shared_viewer(built_book: Path, page: str) -> None:
-    assert page.count('src="../_static/meshcat/main.min.js"') == 1
+    assert page.count('src="../_static/meshcat/main.min.js?v=') == 1
     weight = bookpages.page_weight(built_book / f"{CHAPTER}.html")
     assert weight.html < 400_000, "the twin carries its commands only, not the viewer"

@@ -1,4 +1,4 @@
-"""rosbook.executors.MultiThreadedExecutor: rclpy's, without the busy loop of rclpy#1452."""
+"""rosbook.runtime.executors.MultiThreadedExecutor: rclpy's, without the busy loop of rclpy#1452."""
 
 from __future__ import annotations
 
@@ -11,8 +11,8 @@ from rclpy.callback_groups import MutuallyExclusiveCallbackGroup
 from rclpy.node import Node
 from std_msgs.msg import Empty
 
-from rosbook.executors import MultiThreadedExecutor
-from rosbook.session import Session
+from rosbook.runtime.executors import MultiThreadedExecutor
+from rosbook.runtime.session import Session
 
 
 class Gates(Node):

@@ -11,9 +11,9 @@ from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy, qos_profile_sensor_data
 from std_msgs.msg import Int64, String
 
-from rosbook import graph, interfaces
-from rosbook.graph_svg import GraphEdges, collect, graph_svg, to_svg
-from rosbook.session import Session
+from rosbook.runtime import graph, interfaces
+from rosbook.runtime.session import Session
+from rosbook.viz.graph_svg import GraphEdges, collect, graph_svg, to_svg
 
 
 class Talker(Node):

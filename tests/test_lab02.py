@@ -12,6 +12,9 @@ import pytest
 from autograder.check import check, report
 from tests.labtools import answered, feedback, grade, replace_in_answer, submit
 
+#: The whole lab graded as a class: minutes (`make test-fast` leaves it out).
+pytestmark = pytest.mark.slow
+
 LAB = "lab02_qos"
 
 
@@ -105,11 +108,11 @@ def test_feedback_never_shows_hidden_tests(graded) -> None:
 def test_self_check_names_the_failing_visible_checks(tmp_path: Path) -> None:
     path = tmp_path / f"{LAB}.ipynb"
     nbformat.write(reliable_scan_subscription(), path)
-    results, _, _ = check(path, cell_timeout=20)
-    passed = {r.grade_id: r.passed for r in results}
+    run = check(path, cell_timeout=20)
+    passed = {r.grade_id: r.passed for r in run.results}
     assert passed == {
         "test_map_publisher": True,
         "test_scan_subscription": False,
         "test_slow_subscriber_model": True,
         "test_qos_incompatibilities": True,
-    }, report(path, results, [])
+    }, report(path, run)

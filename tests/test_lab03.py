@@ -11,6 +11,9 @@ import pytest
 
 from tests.labtools import answered, feedback, grade, notebook_path, replace_in_answer, submit
 
+#: The whole lab graded as a class: minutes (`make test-fast` leaves it out).
+pytestmark = pytest.mark.slow
+
 LAB = "lab03_services_actions"
 
 

@@ -11,6 +11,9 @@ import pytest
 from tests.labtools import answered, grade, replace_in_answer, submit
 from tests.labtools import feedback as feedback_html
 
+#: The whole lab graded as a class: minutes (`make test-fast` leaves it out).
+pytestmark = pytest.mark.slow
+
 LAB = "lab04_urdf"
 
 NAIVE_SEPARATION = """def wheel_separation(urdf_string):

@@ -10,6 +10,9 @@ import pytest
 
 from tests.labtools import answered, feedback, grade, replace_in_answer, submit
 
+#: The whole lab graded as a class: minutes (`make test-fast` leaves it out).
+pytestmark = pytest.mark.slow
+
 LAB = "lab06_launch_system"
 
 

@@ -24,3 +24,11 @@ def test_ruff_format_is_applied() -> None:
         [RUFF, "format", "--check", *CODE], cwd=ROOT, capture_output=True, text=True
     )
     assert result.returncode == 0, result.stdout + result.stderr
+
+
+def test_rosbook_layers_import_one_way() -> None:
+    """import-linter's contracts (pyproject.toml): no layer of rosbook imports a higher one,
+    and rosbook never imports the grader."""
+    lint_imports = str(Path(sys.executable).parent / "lint-imports")
+    result = subprocess.run([lint_imports], cwd=ROOT, capture_output=True, text=True)
+    assert result.returncode == 0, result.stdout + result.stderr

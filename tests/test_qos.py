@@ -1,4 +1,4 @@
-"""rosbook.qos: the KEEP_LAST model, the measured delivery scenarios, compatibility."""
+"""rosbook.demos.qos: the KEEP_LAST model, the measured delivery scenarios, compatibility."""
 
 from __future__ import annotations
 
@@ -16,8 +16,8 @@ from rclpy.qos import (
     qos_profile_sensor_data,
 )
 
-from rosbook import qos
-from rosbook.session import Session
+from rosbook.demos import qos
+from rosbook.runtime.session import Session
 
 
 def test_model_processes_1_2_5_9_for_the_slow_subscriber() -> None:

@@ -1,4 +1,4 @@
-"""rosbook.qos_checks: lab 2's checks pass the right answers and name each mistake."""
+"""rosbook.labs.lab02: lab 2's checks pass the right answers and name each mistake."""
 
 from __future__ import annotations
 
@@ -7,8 +7,9 @@ from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy, qos_profi
 from sensor_msgs.msg import LaserScan
 from std_msgs.msg import String
 
-from rosbook import qos, qos_checks
-from rosbook.session import Session
+from rosbook.demos import qos
+from rosbook.labs import lab02 as qos_checks
+from rosbook.runtime.session import Session
 
 
 def map_publisher(durability: DurabilityPolicy):

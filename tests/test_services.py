@@ -1,4 +1,4 @@
-"""rosbook.services / actions / params / interfaces / service_checks on live nodes in-process."""
+"""rosbook.runtime services / actions / params / interfaces and lab 3 checks on live nodes."""
 
 from __future__ import annotations
 
@@ -6,19 +6,22 @@ import time
 
 import pytest
 from action_msgs.msg import GoalStatus
+from rcl_interfaces.msg import SetParametersResult
 from rclpy.action import ActionServer
 from rclpy.node import Node
 from rclpy.parameter import Parameter
+from std_msgs.msg import Int64
 from std_srvs.srv import SetBool, Trigger
 from test_msgs.action import Fibonacci
 
-from rosbook import service_checks
-from rosbook.actions import run_goal, sleep
-from rosbook.demo_nodes import ClockServer, CountdownServer
-from rosbook.interfaces import InterfaceError, definition, from_yaml, message_class
-from rosbook.params import ParameterError, get_parameter, list_parameters, set_parameter
-from rosbook.services import BackgroundServer, ServiceCallError, call, run_with_deadline
-from rosbook.session import Session
+from rosbook.demos.nodes import ClockServer, CountdownServer
+from rosbook.labs import lab03 as service_checks
+from rosbook.labs.probes import Probe
+from rosbook.runtime.actions import run_goal, sleep
+from rosbook.runtime.interfaces import InterfaceError, definition, from_yaml, message_class
+from rosbook.runtime.params import ParameterError, get_parameter, list_parameters, set_parameter
+from rosbook.runtime.services import BackgroundServer, ServiceCallError, call, run_with_deadline
+from rosbook.runtime.session import Session
 
 
 def test_call_returns_the_response_of_a_server_in_the_session(session: Session) -> None:
@@ -232,3 +235,76 @@ def test_check_of_undeclared_parameter_says_declare_it(session) -> None:
     with pytest.raises(AssertionError, match=r"declare it in __init__ with self.declare_parameter"):
         service_checks.assert_declared(node, "rate_hz", 2.0)
     assert clock.now == 0.0
+
+
+class SilentClock(Node):
+    """The usual mistake: the service callback fills in the response but returns nothing."""
+
+    def __init__(self) -> None:
+        super().__init__("clock_server")
+        self.create_service(Trigger, "what_time", self.on_what_time)
+
+    def on_what_time(self, request, response):  # type: ignore[no-untyped-def]
+        response.success = True
+        response.message = f"It is {self.get_clock().now().nanoseconds / 1e9:.3f} s"
+
+
+def test_a_service_callback_that_returns_nothing_is_named(session) -> None:
+    clock = session.sim_clock()
+    server = SilentClock()
+    with pytest.raises(AssertionError, match=r"returned nothing \(None\).*return response"):
+        service_checks.assert_tells_time(server, clock, at=1.5)
+
+
+class RateReadOnce(CountdownServer):
+    """The usual mistake: rate_hz read once in __init__, so a later change is ignored."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.rate_at_start = super().get_parameter("rate_hz")
+
+    def get_parameter(self, name: str):  # type: ignore[no-untyped-def]
+        """What the countdown reads at each step: the value from __init__."""
+        return self.rate_at_start if name == "rate_hz" else super().get_parameter(name)
+
+
+def test_a_rate_read_once_is_named_not_blamed_on_time_sleep(session) -> None:
+    clock = session.sim_clock()
+    server = RateReadOnce()
+    assert service_checks.set_from_outside(server, "rate_hz", 5.0).successful
+    run = service_checks.countdown(clock, order=3)
+    with pytest.raises(AssertionError, match="not once in __init__") as raised:
+        service_checks.assert_counts_down(run, order=3, rate_hz=5.0)
+    assert "time.sleep" not in str(raised.value)
+
+
+class ZeroRateAccepted(Node):
+    """The usual mistake: only negative rates are refused, so 0 reaches 1.0 / rate."""
+
+    def __init__(self) -> None:
+        super().__init__("rate_publisher")
+        self.declare_parameter("rate_hz", 2.0)
+        self.publisher_ = self.create_publisher(Int64, "ticks", 10)
+        self.count = 0
+        self.timer = self.create_timer(0.5, self.tick)
+        self.add_on_set_parameters_callback(self.on_set)
+
+    def tick(self) -> None:
+        self.publisher_.publish(Int64(data=self.count))
+        self.count += 1
+
+    def on_set(self, parameters):  # type: ignore[no-untyped-def]
+        for parameter in parameters:
+            if parameter.value < 0:
+                return SetParametersResult(successful=False, reason="negative")
+            self.destroy_timer(self.timer)
+            self.timer = self.create_timer(1.0 / parameter.value, self.tick)
+        return SetParametersResult(successful=True)
+
+
+def test_accepting_a_zero_rate_is_named_not_only_zero_division(session) -> None:
+    clock = session.sim_clock()
+    node = ZeroRateAccepted()
+    probe = Probe("ticks", Int64)
+    with pytest.raises(AssertionError, match="every value <= 0, zero included"):
+        service_checks.assert_rate_follows(node, clock, probe)

@@ -9,7 +9,7 @@ from rcl_interfaces.msg import Log
 from rclpy.node import Node
 from std_msgs.msg import Int64
 
-from rosbook.session import Session
+from rosbook.runtime.session import Session, spin_node_until
 
 
 class Ticker(Node):
@@ -108,3 +108,75 @@ def test_back_to_wall_time(session: Session) -> None:
     assert not session.sim_time
     node = Node("wall")
     assert node.get_clock().now().nanoseconds > 1e18  # seconds since 1970
+
+
+def test_node_tracking_ends_with_the_session(session: Session) -> None:
+    session.shutdown()
+    assert Node.__init__.__qualname__ == "Node.__init__"  # rclpy's own, not a wrapper
+    assert Node.destroy_node.__qualname__ == "Node.destroy_node"
+    rclpy.init()
+    try:
+        untracked = Node("untracked")
+        assert untracked not in session.nodes
+        untracked.destroy_node()
+    finally:
+        rclpy.shutdown()
+    session.init()  # the notebook session tracks again
+    assert Node("tracked_again") in session.nodes
+
+
+def test_a_session_without_tracking_knows_only_the_nodes_added(session: Session) -> None:
+    explicit = Session()  # shares the default context that `session` initialised
+    stranger = Node("stranger")
+    assert stranger in session.nodes and explicit.nodes == []
+    publisher = explicit.add(Node("added", context=rclpy.get_default_context()))
+    assert explicit.nodes == [publisher] and explicit.owns(publisher)
+    explicit.remove(publisher)
+    assert explicit.nodes == [] and not explicit.owns(publisher)
+
+
+def test_spin_node_until_spins_the_nodes_session(session: Session) -> None:
+    # A helper given only its own node still gets answers from the session's other
+    # nodes (a talker of the same kernel), because the node's whole session spins.
+    talker = Ticker(period=0.05, name="session_talker")
+    heard: list[int] = []
+    ear = Node("ear")
+    ear.create_subscription(Int64, "ticks", lambda m: heard.append(m.data), 10)
+    assert spin_node_until(ear, lambda: len(heard) >= 3, timeout=10.0), "timeout"
+    assert talker.count >= 3
+
+
+def test_spin_node_until_spins_a_node_of_its_own_context_alone(session: Session) -> None:
+    talker = Ticker(period=0.05, name="kernel_talker")  # the session's: not spun here
+    context = rclpy.Context()
+    rclpy.init(context=context)
+    try:
+        cli = Node("_cli", context=context)
+        assert not session.owns(cli)
+        assert spin_node_until(cli, lambda: False, timeout=0.3) is False
+        assert talker.count == 0
+        cli.destroy_node()
+    finally:
+        rclpy.try_shutdown(context=context)
+
+
+def test_spin_for_says_when_a_node_on_sim_time_gets_no_clock(session: Session, capsys) -> None:
+    """A timer waiting on a /clock nobody advances never fires: the cell says so."""
+    session.init(sim_time=True)
+    ticker = Ticker(period=0.1)
+    session.spin_for(0.6)
+    assert ticker.count == 0
+    said = capsys.readouterr().out
+    assert "the timers of ticker did not fire" in said and "ros.init()" in said, said
+
+
+def test_spin_for_is_quiet_when_time_moves(session: Session, capsys) -> None:
+    session.init()
+    ticker = Ticker(period=0.1)
+    session.spin_until(lambda: ticker.count >= 1, timeout=5.0)
+    session.spin_for(0.6)
+    clock = session.sim_clock()
+    Ticker(period=0.1)
+    clock.advance(0.3)
+    session.spin_for(0.05)  # a check's settle on a paused simulated clock
+    assert capsys.readouterr().out == ""

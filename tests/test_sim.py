@@ -12,10 +12,10 @@ from nav_msgs.msg import Odometry
 from rclpy.node import Node
 from sensor_msgs.msg import LaserScan
 
-from rosbook.diff_drive import arc_step, wrap_angle
-from rosbook.session import ros
-from rosbook.sim import Box, DiffDriveSim, RobotGeometry, Wall, World
-from rosbook.sim_node import Simulation, yaw_of
+from rosbook.runtime.session import ros
+from rosbook.sim.diff_drive import arc_step, wrap_angle
+from rosbook.sim.node import Simulation, yaw_of
+from rosbook.sim.physics import Box, DiffDriveSim, RobotGeometry, Wall, World
 
 OPEN = World(arena=None)
 
@@ -249,7 +249,7 @@ def test_a_start_pose_inside_a_wall_is_refused() -> None:
 
 
 def test_path_plot_and_animation_are_drawn_from_the_run() -> None:
-    from rosbook.sim_plot import animate, plot_path, png
+    from rosbook.sim.plot import animate, plot_path, png
 
     sim = DiffDriveSim(World())
     sim.command(0.3, 0.5)
@@ -266,7 +266,8 @@ def test_simulator_runs_as_a_process_in_real_time_and_exits_cleanly_on_ctrl_c(
 ) -> None:
     from rosgraph_msgs.msg import Clock
 
-    from rosbook import checks, sim_node
+    from rosbook.labs import probes as checks
+    from rosbook.sim import node as sim_node
 
     clock = checks.Probe("/clock", Clock)
     odom = checks.Probe("odom", Odometry)

@@ -1,4 +1,4 @@
-"""rosbook.twin: the URDF robot in MeshCat follows the simulator, recorded or live."""
+"""rosbook.viz.twin: the URDF robot in MeshCat follows the simulator, recorded or live."""
 
 from __future__ import annotations
 
@@ -13,10 +13,12 @@ import umsgpack
 from geometry_msgs.msg import Twist
 from rclpy.node import Node
 
-from rosbook import robots, twin, viz
-from rosbook.session import Session
-from rosbook.sim import DiffDriveSim, RobotGeometry, World
-from rosbook.sim_node import Simulation, yaw_of
+from rosbook import robots
+from rosbook.runtime.session import Session
+from rosbook.sim.node import Simulation, yaw_of
+from rosbook.sim.physics import DiffDriveSim, RobotGeometry, World
+from rosbook.viz import scene as viz
+from rosbook.viz import twin
 
 
 @pytest.fixture(scope="module")

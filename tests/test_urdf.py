@@ -1,4 +1,4 @@
-"""rosbook.urdf: loading, validation messages, the link tree and forward kinematics."""
+"""rosbook.robots.urdf: loading, validation messages, the link tree and forward kinematics."""
 
 from __future__ import annotations
 
@@ -9,9 +9,9 @@ import numpy as np
 import pytest
 import yourdfpy
 
-from rosbook import robots, urdf
-from rosbook.robots import DIFF_DRIVE_URDF
-from rosbook.urdf import URDFError
+from rosbook import robots
+from rosbook.robots import DIFF_DRIVE_URDF, urdf
+from rosbook.robots.urdf import URDFError
 
 ROBOTS = robots.FOLDER  # the example robots ship with rosbook
 DIFF_DRIVE = DIFF_DRIVE_URDF  # the lecture robot ships with rosbook

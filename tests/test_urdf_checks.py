@@ -1,10 +1,10 @@
-"""rosbook.urdf_checks: each mistake in a lab robot gets its own explanation."""
+"""rosbook.labs.lab04: each mistake in a lab robot gets its own explanation."""
 
 from __future__ import annotations
 
 import pytest
 
-from rosbook import urdf_checks
+from rosbook.labs import lab04 as urdf_checks
 from rosbook.robots import DIFF_DRIVE_URDF
 
 GOOD = DIFF_DRIVE_URDF.read_text()

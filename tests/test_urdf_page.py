@@ -9,9 +9,10 @@ from pathlib import Path
 
 import pytest
 
-from rosbook import bookpages, robots, urdf
-from rosbook.robots import DIFF_DRIVE_URDF
-from rosbook.viz import VIEWER_JS
+from rosbook import robots
+from rosbook.book import pages as bookpages
+from rosbook.robots import DIFF_DRIVE_URDF, urdf
+from rosbook.viz.scene import VIEWER_JS
 
 CHAPTER = "book/urdf_digital_twin"
 ROBOTS = robots.FOLDER  # the example robots ship with rosbook
@@ -29,7 +30,7 @@ def page(html: Path) -> str:
 
 
 def test_the_page_loads_the_shared_viewer_once(html: Path, page: str) -> None:
-    assert page.count('src="../_static/meshcat/main.min.js"') == 1
+    assert page.count('src="../_static/meshcat/main.min.js?v=') == 1
     shared = html / "_static" / "meshcat" / "main.min.js"
     assert shared.read_bytes() == VIEWER_JS.read_bytes()
     assert "main.min.js" not in (html / "book" / "intro.html").read_text(), (

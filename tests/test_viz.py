@@ -16,8 +16,9 @@ import numpy as np
 import pytest
 import umsgpack
 
-from rosbook import robots, urdf, viz
-from rosbook.robots import DIFF_DRIVE_URDF
+from rosbook import robots
+from rosbook.robots import DIFF_DRIVE_URDF, urdf
+from rosbook.viz import scene as viz
 
 ROBOTS = robots.FOLDER  # the example robots ship with rosbook
 
@@ -62,6 +63,26 @@ def test_named_materials_are_looked_up_in_the_robot() -> None:
     commands = viz.RobotView(r2d2).scene().commands
     base = last(commands, "set_object", "/meshcat/visual/base_link/visual_0")
     assert base["object"]["materials"][0]["color"] == 0x0000CC
+
+
+SHARED_MATERIAL_URDF = """<robot name="shared">
+  <link name="base">
+    <visual><geometry><box size="1 1 1"/></geometry>
+      <material name="orange"><color rgba="1 0.5 0 1"/></material></visual>
+  </link>
+  <link name="arm">
+    <visual><geometry><box size="1 1 1"/></geometry><material name="orange"/></visual>
+  </link>
+  <joint name="j" type="fixed"><parent link="base"/><child link="arm"/></joint>
+</robot>"""
+
+
+def test_a_material_defined_in_one_link_colours_another_that_names_it() -> None:
+    """As in ROS (urdfdom): <material name="orange"/> in 'arm' draws the orange of 'base'."""
+    robot = urdf.load(SHARED_MATERIAL_URDF)
+    commands = viz.RobotView(robot).scene().commands
+    arm = last(commands, "set_object", "/meshcat/shared/arm/visual_0")
+    assert arm["object"]["materials"][0]["color"] == 0xFF8000
 
 
 def test_urdf_cylinders_along_z_are_drawn_along_z(bot: urdf.Robot) -> None:
@@ -220,7 +241,7 @@ def test_live_server_ends_when_its_kernel_is_killed() -> None:
     finally:
         kernel.kill()
         kernel.wait()
-    deadline = time.monotonic() + 5
+    deadline = time.monotonic() + 60  # a guard: the kernel reports the death at once
     while not _ended(server) and time.monotonic() < deadline:
         time.sleep(0.05)
     assert _ended(server), "the MeshCat server outlived its killed kernel"

@@ -11,14 +11,15 @@ from pathlib import Path
 import pytest
 from catkin_pkg.package import parse_package
 
-from rosbook import workspace
-from rosbook.workspace import (
+from rosbook.launch import workspace
+from rosbook.launch.workspace import (
     ColconRun,
     ExecutableNotFoundError,
     PackageNotFoundError,
     Workspace,
     create_package,
     executable_path,
+    sh,
     sourced_environ,
 )
 
@@ -205,3 +206,20 @@ def test_ros2_pkg_list_and_prefix_read_the_ament_index(built: Workspace) -> None
         [*ROS2, "pkg", "prefix", "demo_pkg"], env=env, capture_output=True, text=True
     )
     assert prefix.stdout.strip() == str(built.install / "demo_pkg")
+
+
+def test_sh_presses_ctrl_c_once_the_output_showed_what_it_should(tmp_path: Path) -> None:
+    """A program that runs until Ctrl-C is stopped after its third line, not after a time."""
+    loop = "trap 'echo interrupted; exit 130' INT; for i in $(seq 1000); do echo tick $i; "
+    loop += "sleep 0.05; done"
+    done = sh(loop, cwd=tmp_path, ctrl_c_after=r"^tick \d", times=3, echo=False)
+    assert "tick 3\n" in done.stdout and "tick 1000" not in done.stdout, done.stdout
+    assert done.stdout.rstrip().endswith("interrupted") and done.returncode == 130
+
+
+def test_sh_waits_for_every_pattern_and_says_timeout_when_one_never_comes(tmp_path: Path) -> None:
+    with pytest.raises(subprocess.TimeoutExpired) as caught:
+        sh("echo ready; sleep 60", cwd=tmp_path, ctrl_c_after=["ready", "never"], timeout=2)
+    assert "timeout: 1 of 1 lines matching 'ready', 0 of 1 lines matching 'never'" in str(
+        caught.value.output
+    )

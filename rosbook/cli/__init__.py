@@ -15,6 +15,7 @@ import importlib
 import os
 import pkgutil
 import sys
+import time
 from collections.abc import Iterator
 from contextlib import contextmanager
 
@@ -23,54 +24,58 @@ from rclpy.context import Context
 from rclpy.node import Node
 from rclpy.signals import SignalHandlerOptions
 
-from rosbook import graph
+from rosbook.runtime import graph
 
-#: Wall time a fresh CLI node waits for discovery before it reads the graph
-#: (the real ``ros2`` CLI keeps a daemon running for this; we start cold each time).
-DISCOVERY_S = 0.5
-#: Longest a verb waits for what it looks for (a service, an action's nodes, a
-#: parameter service's answer), in seconds of wall time.
-GRAPH_TIMEOUT_S = 5.0
+#: Longest a verb waits for an answer from what it found (a service's response, a
+#: parameter service's answer), in seconds of wall time: a guard against a hang.
+GRAPH_TIMEOUT_S = 20.0
 
 
 @contextmanager
-def cli_node(discovery_s: float = DISCOVERY_S, *, settle: bool = False) -> Iterator[Node]:
+def cli_node(*, settle: bool = False) -> Iterator[Node]:
     """A short-lived, hidden node in a context of its own.
 
-    It first spins ``discovery_s`` so that discovery can start. With ``settle`` (for
-    listings of the whole graph) it instead waits until discovery found nothing new for
-    a while, and at least one participant announcement period
-    (``rosbook.graph.settle``). Its name starts with an underscore, like the real
-    CLI's ``_ros2cli_*`` nodes, so graph listings leave it out by default.
+    The real ``ros2`` CLI keeps a daemon that knows the graph; this one starts cold, so
+    each verb waits for discovery: one that looks for a name uses ``graph.lookup``
+    (present as soon as seen, absent once the graph settled without it); with ``settle``
+    (listings of the whole graph) the node first waits until discovery has settled and
+    at least one participant announcement period passed (``rosbook.runtime.graph.settle``).
+    Its name starts with an underscore, like the real CLI's ``_ros2cli_*`` nodes, so
+    graph listings leave it out by default.
     """
+    started = time.monotonic()
     context = Context()
     rclpy.init(context=context, signal_handler_options=SignalHandlerOptions.NO)
     node = Node(f"_ros2cli_{os.getpid()}", context=context, start_parameter_services=False)
+    graph.discovering_since(node, started)
     try:
         if settle:
             graph.settle(node, at_least=graph.ANNOUNCE_PERIOD_S)
-        else:
-            graph.wait_for(lambda _: False, node, timeout=discovery_s)
         yield node
     finally:
         node.destroy_node()
         rclpy.try_shutdown(context=context)
 
 
-def build_parser() -> argparse.ArgumentParser:
+def build_parser(verb: str | None = None) -> argparse.ArgumentParser:
+    """The command's parser: every verb, or only ``verb`` when it names one (a cold
+    command then imports one verb's module, not all of them: it starts faster)."""
     parser = argparse.ArgumentParser(
         prog="ros2",
         description="The ros2 verbs this book uses, built on rclpy (see `ros2 VERB -h`).",
     )
     verbs = parser.add_subparsers(dest="verb", required=True, metavar="VERB")
-    for module in sorted(pkgutil.iter_modules(__path__), key=lambda m: m.name):
-        if module.name.startswith("verb_"):
-            importlib.import_module(f"{__name__}.{module.name}").add_parser(verbs)
+    modules = sorted(m.name for m in pkgutil.iter_modules(__path__) if m.name.startswith("verb_"))
+    if f"verb_{verb}" in modules:
+        modules = [f"verb_{verb}"]
+    for name in modules:
+        importlib.import_module(f"{__name__}.{name}").add_parser(verbs)
     return parser
 
 
 def main(argv: list[str] | None = None) -> int:
-    args = build_parser().parse_args(argv)
+    argv = sys.argv[1:] if argv is None else argv
+    args = build_parser(argv[0] if argv else None).parse_args(argv)
     try:
         return int(args.func(args) or 0)
     except KeyboardInterrupt:

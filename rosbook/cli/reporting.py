@@ -7,8 +7,8 @@ import functools
 import sys
 from collections.abc import Callable
 
-from rosbook.graph import GraphError
-from rosbook.interfaces import InterfaceError
+from rosbook.runtime.graph import GraphError
+from rosbook.runtime.interfaces import InterfaceError
 
 Handler = Callable[[argparse.Namespace], int]
 

@@ -14,11 +14,11 @@ from rclpy.action.graph import (
 )
 from rclpy.node import Node
 
-from rosbook import graph
-from rosbook.actions import run_goal
-from rosbook.cli import GRAPH_TIMEOUT_S, cli_node
-from rosbook.interfaces import InterfaceError, from_yaml, message_class, to_yaml
-from rosbook.services import ServiceCallError
+from rosbook.cli import cli_node
+from rosbook.runtime import graph
+from rosbook.runtime.actions import run_goal
+from rosbook.runtime.interfaces import InterfaceError, from_yaml, message_class, to_yaml
+from rosbook.runtime.services import ServiceCallError
 
 #: A by-node action lookup of ``rclpy.action.graph``.
 Lookup = Callable[[Node, str, str], list[tuple[str, list[str]]]]
@@ -67,7 +67,7 @@ def _users(node: Node, action: str, lookup: Lookup) -> list[tuple[str, list[str]
 
 def action_info(args: argparse.Namespace) -> int:
     action = "/" + args.action_name.lstrip("/")
-    with cli_node(discovery_s=0) as node:
+    with cli_node() as node:
 
         def users() -> tuple[list, list]:
             return (
@@ -76,7 +76,7 @@ def action_info(args: argparse.Namespace) -> int:
             )
 
         # The action's name and the nodes behind it are discovered separately.
-        if graph.wait_for(lambda _: any(users()), node, GRAPH_TIMEOUT_S):
+        if graph.lookup(lambda _: any(users()), node):
             graph.settle(node)
         if action not in dict(get_action_names_and_types(node)):
             print(f"ros2 action info: no action '{action}' is running", file=sys.stderr)
@@ -118,7 +118,7 @@ def send_goal(args: argparse.Namespace) -> int:
             show(message)
 
     action = "/" + args.action_name.lstrip("/")
-    with cli_node(discovery_s=0) as node:
+    with cli_node() as node:
         print("Waiting for an action server to become available...")
         print(f"Sending goal:\n     {to_yaml(goal)}\n", flush=True)
         try:

@@ -7,7 +7,7 @@ from pathlib import Path
 
 from rosbook.cli import cli_node
 from rosbook.cli.reporting import reports_errors
-from rosbook.graph_svg import collect, to_svg
+from rosbook.viz.graph_svg import collect, to_svg
 
 
 def add_parser(verbs: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]

@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import argparse
 
-from rosbook import interfaces
 from rosbook.cli.reporting import reports_errors
+from rosbook.runtime import interfaces
 
 
 def add_parser(verbs: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]

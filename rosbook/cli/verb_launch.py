@@ -14,8 +14,8 @@ import signal
 import sys
 from pathlib import Path
 
-from rosbook import workspace
-from rosbook.launch import Launch, LaunchError, load_launch_file
+from rosbook.launch import workspace
+from rosbook.launch.launcher import Launch, LaunchError, load_launch_file
 
 
 def add_parser(verbs: argparse._SubParsersAction) -> None:

@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import argparse
 
-from rosbook import graph
 from rosbook.cli import cli_node
 from rosbook.cli.reporting import reports_errors
+from rosbook.runtime import graph
 
 
 def add_parser(verbs: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
@@ -37,13 +37,9 @@ def list_nodes(args: argparse.Namespace) -> int:
 
 @reports_errors
 def info(args: argparse.Namespace) -> int:
+    full = "/" + args.node_name.lstrip("/")
     with cli_node() as node:
-        print(
-            graph.node_info(
-                args.node_name,
-                node,
-                include_hidden=args.include_hidden,
-                wait=graph.ANNOUNCE_PERIOD_S,
-            ).format()
-        )
+        if graph.lookup(lambda g: full in g.get_fully_qualified_node_names(), node):
+            graph.settle(node)  # all of its endpoints
+        print(graph.node_info(full, node, include_hidden=args.include_hidden).format())
     return 0

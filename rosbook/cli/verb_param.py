@@ -5,9 +5,13 @@ from __future__ import annotations
 import argparse
 import sys
 
+from rclpy.node import Node
+
 from rosbook.cli import GRAPH_TIMEOUT_S, cli_node
-from rosbook.params import ParameterError, get_parameter, list_parameters, set_parameter
-from rosbook.services import ServiceCallError
+from rosbook.runtime import graph
+from rosbook.runtime.graph import absolute_name
+from rosbook.runtime.params import ParameterError, get_parameter, list_parameters, set_parameter
+from rosbook.runtime.services import ServiceCallError
 
 #: What ``ros2 param get`` prints before the value, by Python type.
 LABELS = {bool: "Boolean", int: "Integer", float: "Double", str: "String"}
@@ -30,14 +34,17 @@ def add_parser(verbs: argparse._SubParsersAction) -> None:
     setter.set_defaults(func=set_param)
 
 
-def _absolute(node_name: str) -> str:
-    return "/" + node_name.lstrip("/")
+def _serves_parameters(node: Node, target: str) -> bool:
+    """Whether ``target``'s parameter services are on the graph: at once when they are,
+    False once the graph settled without them."""
+    service = f"{target.rstrip('/')}/get_parameters"
+    return graph.lookup(lambda g: service in dict(g.get_service_names_and_types()), node)
 
 
 def list_params(args: argparse.Namespace) -> int:
-    with cli_node(discovery_s=0, settle=not args.node_name) as node:
+    with cli_node(settle=not args.node_name) as node:
         if args.node_name:
-            targets = [_absolute(args.node_name)]
+            targets = [absolute_name(args.node_name)]
         else:
             targets = sorted(
                 ns.rstrip("/") + "/" + name
@@ -47,6 +54,8 @@ def list_params(args: argparse.Namespace) -> int:
         status = 0
         for target in targets:
             try:
+                if not _serves_parameters(node, target):
+                    raise ServiceCallError(f"no node '{target}'")
                 names = list_parameters(node, target, GRAPH_TIMEOUT_S)
             except ServiceCallError:
                 print(f"ros2 param list: no node '{target}' answers", file=sys.stderr)
@@ -59,9 +68,11 @@ def list_params(args: argparse.Namespace) -> int:
 
 
 def get_param(args: argparse.Namespace) -> int:
-    target = _absolute(args.node_name)
-    with cli_node(discovery_s=0) as node:
+    target = absolute_name(args.node_name)
+    with cli_node() as node:
         try:
+            if not _serves_parameters(node, target):
+                raise ServiceCallError(f"no node '{target}'")
             value = get_parameter(node, target, args.parameter_name, GRAPH_TIMEOUT_S)
         except ServiceCallError:
             print(f"ros2 param get: no node '{target}' answers", file=sys.stderr)
@@ -75,9 +86,11 @@ def get_param(args: argparse.Namespace) -> int:
 
 
 def set_param(args: argparse.Namespace) -> int:
-    target = _absolute(args.node_name)
-    with cli_node(discovery_s=0) as node:
+    target = absolute_name(args.node_name)
+    with cli_node() as node:
         try:
+            if not _serves_parameters(node, target):
+                raise ServiceCallError(f"no node '{target}'")
             result = set_parameter(node, target, args.parameter_name, args.value, GRAPH_TIMEOUT_S)
         except ServiceCallError:
             print(f"ros2 param set: no node '{target}' answers", file=sys.stderr)

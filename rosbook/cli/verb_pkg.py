@@ -10,7 +10,7 @@ from __future__ import annotations
 import argparse
 import sys
 
-from rosbook import workspace
+from rosbook.launch import workspace
 
 
 def add_parser(verbs: argparse._SubParsersAction) -> None:

@@ -13,7 +13,7 @@ import signal
 import subprocess
 import sys
 
-from rosbook.workspace import executable_path
+from rosbook.launch.workspace import executable_path
 
 
 def add_parser(verbs: argparse._SubParsersAction) -> None:

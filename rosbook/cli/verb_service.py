@@ -5,10 +5,10 @@ from __future__ import annotations
 import argparse
 import sys
 
-from rosbook import graph
-from rosbook.cli import GRAPH_TIMEOUT_S, cli_node
-from rosbook.interfaces import InterfaceError, from_yaml, message_class
-from rosbook.services import ServiceCallError, call
+from rosbook.cli import cli_node
+from rosbook.runtime import graph
+from rosbook.runtime.interfaces import InterfaceError, from_yaml, message_class
+from rosbook.runtime.services import ServiceCallError, call
 
 
 def add_parser(verbs: argparse._SubParsersAction) -> None:
@@ -48,10 +48,8 @@ def list_services(args: argparse.Namespace) -> int:
 
 def service_type(args: argparse.Namespace) -> int:
     name = "/" + args.service_name.lstrip("/")
-    with cli_node(discovery_s=0) as node:
-        graph.wait_for(
-            lambda g: name in dict(g.get_service_names_and_types()), node, GRAPH_TIMEOUT_S
-        )
+    with cli_node() as node:
+        graph.lookup(lambda g: name in dict(g.get_service_names_and_types()), node)
         services = dict(node.get_service_names_and_types())
     if name not in services:
         print(f"ros2 service type: no service '{name}' is running", file=sys.stderr)
@@ -68,7 +66,7 @@ def call_service(args: argparse.Namespace) -> int:
     except InterfaceError as exc:
         print(f"ros2 service call: {exc}", file=sys.stderr)
         return 1
-    with cli_node(discovery_s=0) as node:
+    with cli_node() as node:  # waits up to --timeout for a server, as asked
         print(f"requester: making request: {request!r}\n")
         try:
             response = call(node, srv_type, args.service_name, request, timeout=args.timeout)

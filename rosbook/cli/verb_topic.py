@@ -7,13 +7,12 @@ import math
 import time
 from typing import Any
 
-from rosbook import graph
-from rosbook.cli import DISCOVERY_S, cli_node
-from rosbook.cli.reporting import fail, reports_errors
-from rosbook.interfaces import to_yaml
+from rclpy.node import Node
 
-#: Seconds a command waits for a named topic's publisher to be discovered.
-WAIT_S = graph.ANNOUNCE_PERIOD_S
+from rosbook.cli import cli_node
+from rosbook.cli.reporting import fail, reports_errors
+from rosbook.runtime import graph
+from rosbook.runtime.interfaces import to_yaml
 
 
 def add_parser(verbs: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
@@ -49,6 +48,14 @@ def add_parser(verbs: argparse._SubParsersAction) -> None:  # type: ignore[type-
     p.set_defaults(func=hz)
 
 
+def find_publisher(node: Node, topic: str) -> None:
+    """Wait until a publisher of ``topic`` is discovered, or the graph settled without
+    one (then ``graph.echo``/``HzMonitor`` say what is missing)."""
+    name = "/" + topic.lstrip("/")
+    if graph.lookup(lambda g: g.count_publishers(name) > 0, node):
+        graph.settle(node)  # all of its publishers, for a QoS that matches them all
+
+
 @reports_errors
 def list_topics(args: argparse.Namespace) -> int:
     with cli_node(settle=True) as node:
@@ -62,10 +69,11 @@ def list_topics(args: argparse.Namespace) -> int:
 
 @reports_errors
 def info(args: argparse.Namespace) -> int:
+    topic = "/" + args.topic_name.lstrip("/")
     with cli_node() as node:
-        graph.topic_info(args.topic_name, node, wait=WAIT_S)  # GraphError if it never appears
-        graph.settle(node, at_least=graph.ANNOUNCE_PERIOD_S - DISCOVERY_S)
-        print(graph.topic_info(args.topic_name, node).format(verbose=args.verbose))
+        if graph.lookup(lambda g: topic in dict(g.get_topic_names_and_types()), node):
+            graph.settle(node)  # every endpoint of it, each with its node's name
+        print(graph.topic_info(topic, node).format(verbose=args.verbose))  # or GraphError
     return 0
 
 
@@ -78,9 +86,8 @@ def echo(args: argparse.Namespace) -> int:
         print(to_yaml(msg), "---", sep="\n", flush=True)
 
     with cli_node() as node:
-        got = graph.echo(
-            args.topic_name, count, node, timeout=timeout, on_message=show, wait=WAIT_S
-        )  # type: ignore[arg-type]
+        find_publisher(node, args.topic_name)
+        got = graph.echo(args.topic_name, count, node, timeout=timeout, on_message=show)
     if len(got) < count:
         topic = "/" + args.topic_name.lstrip("/")
         return fail(f"{len(got)} of {count:g} message(s) on '{topic}' in {timeout:g} s")
@@ -91,7 +98,8 @@ def echo(args: argparse.Namespace) -> int:
 def hz(args: argparse.Namespace) -> int:
     duration = math.inf if args.duration is None else args.duration
     with cli_node() as node:
-        monitor = graph.HzMonitor(args.topic_name, node, window=args.window, wait=WAIT_S)
+        find_publisher(node, args.topic_name)
+        monitor = graph.HzMonitor(args.topic_name, node, window=args.window)
         start = time.monotonic()
         try:
             while (left := duration - (time.monotonic() - start)) > 0:

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from rosbook.urdf import Robot, load
+from rosbook.robots.urdf import Robot, load
 
 #: The folder of the robot descriptions.
 FOLDER = Path(__file__).parent
@@ -28,5 +28,5 @@ WHEEL_JOINTS = (LEFT_WHEEL_JOINT, RIGHT_WHEEL_JOINT)
 
 
 def diff_drive() -> Robot:
-    """The lecture robot, loaded (a fresh :class:`~rosbook.urdf.Robot` each call)."""
+    """The lecture robot, loaded (a fresh :class:`~rosbook.robots.urdf.Robot` each call)."""
     return load(DIFF_DRIVE_URDF)

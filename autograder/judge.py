@@ -1,0 +1,495 @@
+"""The judge: a trusted process that decides test cells by observing the student's code.
+
+A test cell runs in the student's kernel, after the student's cells, so anything it
+prints or asserts is the student's to change (an input transformer can turn it into
+``pass``). The judge is a separate process, started by the grading worker with
+``python -I -m autograder.judge`` (``-I``: the submission's folder is never on its
+``sys.path``), that sees the student's code only through what it cannot forge:
+
+- ROS traffic: it joins the kernel's DDS network (``join_network``), publishes the
+  stimuli and ``/clock`` itself and records what arrives on its own subscriptions;
+- return values: it asks the kernel, over a Jupyter client of its own, to build and
+  spin the student's node (the agent below) and compares what comes back;
+- programs: it starts the student's scripts itself (``student_command``) and reads
+  their exit codes.
+
+Hidden parameters and expected values live here and in the labs' judge modules, never
+in the kernel. Protocol: one JSON request per line on stdin
+(``{"assignment": ..., "check": <grade_id>, "connection_file": ..., "folder": ...}``),
+one JSON ``Verdict`` per line on stdout. The judge never imports the student's code.
+"""
+
+from __future__ import annotations
+
+import ast
+import importlib
+import json
+import os
+import sys
+import time
+import traceback
+from collections.abc import Callable, Iterator, Sequence
+from contextlib import AbstractContextManager, contextmanager
+from dataclasses import asdict, dataclass
+from pathlib import Path
+from typing import Any
+
+from jupyter_client.blocking import BlockingKernelClient
+from rclpy.executors import SingleThreadedExecutor
+from rclpy.node import Node
+from rclpy.qos import QoSProfile
+from rosgraph_msgs.msg import Clock
+
+from rosbook.labs.probes import ScriptRun, run_script
+from rosbook.runtime.session import ros
+
+#: Generous wall-clock guards against hangs; hitting one is reported as "timeout".
+KERNEL_REPLY_GUARD_S = 60.0
+EVENT_GUARD_S = 10.0
+
+#: Labs whose test cells the judge decides, and the module holding their checks.
+JUDGED_LABS = {
+    "lab01_nodes_topics": "autograder.judge_lab01",
+    "lab04_urdf": "autograder.judge_lab04",
+}
+
+
+@dataclass
+class Verdict:
+    """The judge's decision on one test cell."""
+
+    grade_id: str
+    passed: bool
+    message: str = ""
+    timeout: bool = False
+    #: The judge itself failed (a bug of the grader's, not the student's): no verdict.
+    broken: bool = False
+
+
+class CheckFailed(AssertionError):
+    """The student's code did not do what the check expects (the message says how)."""
+
+
+class JudgeTimeout(Exception):
+    """A hang guard was hit: the verdict is "timeout", never "wrong"."""
+
+
+def judged_checks(
+    assignment_id: str, sandboxed: bool = False
+) -> dict[str, Callable[[Judgement], None]]:
+    """The judge's checks of ``assignment_id`` by grade_id (empty: judged in-kernel).
+
+    ``sandboxed``: the kernel runs in a sandbox, and checks that would run the student's
+    programs in the judge (outside that sandbox) are left to the kernel."""
+    if assignment_id not in JUDGED_LABS:
+        return {}
+    module = importlib.import_module(JUDGED_LABS[assignment_id])
+    skipped = getattr(module, "RUNS_STUDENT_PROGRAMS", set()) if sandboxed else set()
+    return {k: v for k, v in module.CHECKS.items() if k not in skipped}
+
+
+def join_network() -> None:
+    """Join the DDS network the student's kernel is on.
+
+    Today the kernel shares the worker's network namespace and the job's
+    ``ROS_DOMAIN_ID`` (inherited), so there is nothing to do. When kernels run in a
+    sandbox with a network namespace of their own, this is the one place that enters it
+    (``setns`` on the sandbox's ``/proc/<pid>/ns/net``) before any DDS participant exists.
+    """
+
+
+def student_command(argv: Sequence[str]) -> list[str]:
+    """The command that runs a student's program (``python talker.py``).
+
+    Today: as is, in the judge's environment. With a sandbox, this wraps ``argv`` in it.
+    """
+    return list(argv)
+
+
+# -- the kernel side -----------------------------------------------------------------
+
+#: Defined in the student's kernel before the first check. It builds the student's node
+#: with the judge's parameters and spins it when asked. It runs as the student, so it
+#: may be changed or broken by the student's code: that can only make the judge see
+#: less, and seeing less never passes a check.
+AGENT = r'''
+class _RosbookJudgeAgent:
+    def __init__(self):
+        self.node = None
+        self.executor = None
+        self.ackers = []
+        self.reply = "null"
+
+    def _answer(self, value):
+        import json
+        self.reply = json.dumps(value)
+
+    def start(self, factory, kwargs, sim_time):
+        from rclpy.executors import SingleThreadedExecutor
+        from rosbook import ros
+        self.stop()
+        ros.init(sim_time=sim_time)
+        ros.reset()
+        self.node = get_ipython().user_ns[factory](**kwargs)
+        self.executor = SingleThreadedExecutor()
+        self.executor.add_node(self.node)
+        name, ns = self.node.get_name(), self.node.get_namespace()
+        self._answer({
+            "name": name, "namespace": ns,
+            "publishers": self.node.get_publisher_names_and_types_by_node(name, ns),
+            "subscriptions": self.node.get_subscriber_names_and_types_by_node(name, ns),
+        })
+
+    def follow_clock(self, until, guard):
+        """Spin the node on the judge's /clock up to ``until``. After each new time, once
+        its due callbacks ran, say on /rosbook_judge/clock_ack the time and how many
+        messages it has published on each topic (the judge waits for them to arrive,
+        then publishes the next time)."""
+        import json
+        import time
+        import rclpy
+        from rclpy.publisher import Publisher
+        from std_msgs.msg import String
+        acker = rclpy.create_node("rosbook_judge_agent")
+        ack = acker.create_publisher(String, "/rosbook_judge/clock_ack", 10)
+        counts = {}
+        original = Publisher.publish
+
+        def counted(publisher, msg):
+            counts[publisher.topic_name] = counts.get(publisher.topic_name, 0) + 1
+            return original(publisher, msg)
+
+        Publisher.publish = counted
+        target = int(round(until * 1e9))
+        last = -1
+        sent = 0.0
+        msg = String()
+        deadline = time.monotonic() + guard
+        try:
+            while ack.get_subscription_count() == 0 and time.monotonic() < deadline:
+                time.sleep(0.01)
+            while True:
+                now = self.node.get_clock().now().nanoseconds
+                if now > last:
+                    for _ in range(8):
+                        self.executor.spin_once(timeout_sec=0.0)
+                    msg.data = json.dumps({"now": now, "published": counts})
+                    last, sent = now, 0.0
+                    deadline = time.monotonic() + guard
+                if time.monotonic() - sent > 0.1:  # again, while the judge waits for it
+                    ack.publish(msg)
+                    sent = time.monotonic()
+                    if last >= target:
+                        self._answer({"timeout": False})
+                        return
+                if time.monotonic() > deadline:
+                    self._answer({"timeout": True})
+                    return
+                self.executor.spin_once(timeout_sec=0.01)
+        finally:
+            Publisher.publish = original
+            self.ackers.append(acker)  # destroyed by stop(): the last ack must get out
+
+    def spin(self, seconds):
+        import time
+        end = time.monotonic() + seconds
+        while time.monotonic() < end:
+            self.executor.spin_once(timeout_sec=0.01)
+        self._answer(None)
+
+    def spin_until_length(self, attribute, length, guard):
+        import time
+        end = time.monotonic() + guard
+        while len(getattr(self.node, attribute, None) or ()) < length:
+            if time.monotonic() > end:
+                break
+            self.executor.spin_once(timeout_sec=0.01)
+        value = getattr(self.node, attribute, None)
+        self._answer(list(value) if isinstance(value, (list, tuple)) else repr(value))
+
+    def _plain(self, value):
+        """``value`` as JSON: numbers, strings and sequences of them; else its repr."""
+        if isinstance(value, (bool, int, float, str)) or value is None:
+            return {"type": type(value).__name__, "value": value}
+        if hasattr(value, "dtype") and getattr(value, "shape", None) == ():
+            return {"type": "float", "value": float(value)}
+        if isinstance(value, (list, tuple)) or hasattr(value, "tolist"):
+            items = list(value.tolist() if hasattr(value, "tolist") else value)
+            if all(isinstance(v, (bool, int, float)) for v in items):
+                return {"type": type(value).__name__, "value": [float(v) for v in items]}
+        return {"type": type(value).__name__, "repr": repr(value)[:300]}
+
+    def value(self, name):
+        self._answer(self._plain(get_ipython().user_ns[name]))
+
+    def call_function(self, name, args):
+        self._answer(self._plain(get_ipython().user_ns[name](*args)))
+
+    def stop(self):
+        if self.executor is not None:
+            self.executor.shutdown(timeout_sec=0)
+        if self.node is not None:
+            self.node.destroy_node()
+        for acker in self.ackers:
+            acker.destroy_node()
+        self.ackers = []
+        self.node = self.executor = None
+        self._answer(None)
+
+
+__rosbook_judge__ = _RosbookJudgeAgent()
+'''
+
+
+class KernelError(CheckFailed):
+    """The kernel raised while the agent ran the student's code."""
+
+
+class Kernel:
+    """A Jupyter client of the judge's own, connected to the student's kernel."""
+
+    def __init__(self, connection_file: str) -> None:
+        self.client = BlockingKernelClient(connection_file=connection_file)
+        self.client.load_connection_file()
+        self.client.start_channels()
+        self.agent_ready = False
+
+    def call(self, method: str, *args: Any, guard: float = KERNEL_REPLY_GUARD_S) -> Any:
+        """Run ``__rosbook_judge__.method(*args)`` in the kernel; its JSON answer."""
+        return self.answer(self.send(method, *args), guard)
+
+    def send(self, method: str, *args: Any) -> str:
+        """Start ``__rosbook_judge__.method(*args)`` in the kernel; ``answer`` waits for it."""
+        if not self.agent_ready:
+            self._reply(self.client.execute(AGENT, silent=True, store_history=False), 60.0)
+            self.agent_ready = True
+        call = f"__rosbook_judge__.{method}({', '.join(repr(a) for a in args)})"
+        return self.client.execute(  # type: ignore[no-any-return]
+            call,
+            silent=True,
+            store_history=False,
+            user_expressions={"reply": "__rosbook_judge__.reply"},
+        )
+
+    def answer(self, msg_id: str, guard: float = KERNEL_REPLY_GUARD_S) -> Any:
+        reply = self._reply(msg_id, guard)
+        answer = reply.get("user_expressions", {}).get("reply", {})
+        if answer.get("status") != "ok":
+            raise CheckFailed("the kernel gave no answer to the judge")
+        try:
+            return json.loads(ast.literal_eval(answer["data"]["text/plain"]))
+        except (KeyError, ValueError, SyntaxError, TypeError):
+            raise CheckFailed("the kernel's answer to the judge was not readable") from None
+
+    def _reply(self, msg_id: str, guard: float) -> dict[str, Any]:
+        deadline = time.monotonic() + guard
+        while True:
+            remaining = deadline - time.monotonic()
+            if remaining <= 0:
+                raise JudgeTimeout(f"the kernel did not answer within {guard:.0f} s")
+            try:
+                msg = self.client.get_shell_msg(timeout=remaining)
+            except Exception:  # queue.Empty: checked against the deadline above
+                continue
+            if msg["parent_header"].get("msg_id") == msg_id:
+                content = msg["content"]
+                if content.get("status") == "error":
+                    raise KernelError(f"{content.get('ename')}: {content.get('evalue')}")
+                return content
+
+    def close(self) -> None:
+        if self.agent_ready:
+            try:
+                self.call("stop", guard=10.0)
+            except Exception:  # the kernel is the student's: its state is not ours to fix
+                pass
+        self.client.stop_channels()
+
+
+# -- what a check sees ---------------------------------------------------------------
+
+
+@dataclass
+class Judgement:
+    """One check's view: the kernel, the submission's folder, and the judge's nodes."""
+
+    kernel: Kernel
+    folder: Path
+
+    def start_node(self, factory: str, *, sim_time: bool = False, **kwargs: Any) -> dict[str, Any]:
+        """Build ``factory(**kwargs)`` in the kernel; what it says it is (name, endpoints)."""
+        call = f"{factory}({', '.join(f'{k}={v!r}' for k, v in kwargs.items())})"
+        try:
+            return self.kernel.call("start", factory, kwargs, sim_time)  # type: ignore[no-any-return]
+        except KernelError as exc:
+            if "NotImplementedError" in str(exc):
+                raise CheckFailed(
+                    f"{call}: this task is not done yet (NotImplementedError)"
+                ) from None
+            raise CheckFailed(f"{call} raised {exc}") from None
+
+    def value(self, name: str) -> Any:
+        """The kernel's global ``name`` (numbers, strings, sequences of numbers)."""
+        try:
+            return _python_value(self.kernel.call("value", name))
+        except KernelError as exc:
+            if "KeyError" in str(exc):
+                raise CheckFailed(
+                    f"{name} is not defined: write it in its task's cell and run it"
+                ) from None
+            raise
+
+    def call_function(self, name: str, *args: Any) -> Any:
+        """What the student's function ``name(*args)`` returns, called in the kernel."""
+        shown = ", ".join(repr(a) if not isinstance(a, str) else "<URDF>" for a in args)
+        try:
+            return _python_value(self.kernel.call("call_function", name, list(args)))
+        except KernelError as exc:
+            if "KeyError" in str(exc) and name in str(exc):
+                raise CheckFailed(f"{name} is not defined: run its task's cell") from None
+            if "NotImplementedError" in str(exc):
+                raise CheckFailed(
+                    f"{name}({shown}): this task is not done yet (NotImplementedError)"
+                ) from None
+            raise CheckFailed(f"{name}({shown}) raised {exc}") from None
+
+    def wait_on_graph(self, name: str, topic: str, kind: str) -> None:
+        """Wait until the judge sees node ``name``'s ``kind`` ("publisher"/"subscription")
+        of ``topic`` on the DDS graph, so no message of the check is sent into the void."""
+        watcher = ros_node("judge_graph")
+        lookup = (
+            watcher.get_publisher_names_and_types_by_node
+            if kind == "publisher"
+            else watcher.get_subscriber_names_and_types_by_node
+        )
+
+        def seen() -> bool:
+            try:
+                return any(t == topic for t, _ in lookup(name, "/"))
+            except Exception:  # NodeNameNonExistentError until discovery finds it
+                return False
+
+        try:
+            if not ros.spin_until(seen, watcher, timeout=EVENT_GUARD_S):
+                raise JudgeTimeout(f"node '{name}' did not appear on the ROS graph")
+        finally:
+            ros.remove(watcher)
+
+    def script(self, name: str, *ros_args: str) -> AbstractContextManager[ScriptRun]:
+        """Start the student's program ``name`` (``python name --ros-args ...``) from the
+        judge, so its exit code is the judge's to read; it is gone afterwards."""
+        return run_script(self.folder / name, *ros_args, cwd=self.folder, wrap=student_command)
+
+
+class Unreadable:
+    """A value the kernel could only describe (its type and repr): never equal to one."""
+
+    def __init__(self, type_name: str, text: str) -> None:
+        self.type_name, self.text = type_name, text
+
+    def __repr__(self) -> str:
+        return f"{self.text} ({self.type_name})"
+
+
+def _python_value(plain: dict[str, Any]) -> Any:
+    if "repr" in plain:
+        return Unreadable(plain["type"], plain["repr"])
+    value = plain["value"]
+    return tuple(value) if isinstance(value, list) else value
+
+
+def drain(node: Node, rounds: int = 20) -> None:
+    """Run ``node``'s callbacks that are ready now (messages that have arrived)."""
+    executor = SingleThreadedExecutor(context=node.context)
+    executor.add_node(node)
+    try:
+        for _ in range(rounds):
+            executor.spin_once(timeout_sec=0.0)
+    finally:
+        executor.remove_node(node)
+        executor.shutdown(timeout_sec=0)
+
+
+def ros_node(name: str) -> Node:
+    """A node of the judge's own (destroyed with ``ros.remove``)."""
+    return Node(name)
+
+
+def clock_publisher(node: Node) -> Any:
+    return node.create_publisher(Clock, "/clock", QoSProfile(depth=10))
+
+
+def clock_message(t: float) -> Clock:
+    msg = Clock()
+    msg.clock.sec, msg.clock.nanosec = divmod(int(round(t * 1e9)), 1_000_000_000)
+    return msg
+
+
+# -- the process ---------------------------------------------------------------------
+
+
+def judge_one(request: dict[str, Any], kernels: dict[str, Kernel]) -> Verdict:
+    grade_id = request["check"]
+    check = judged_checks(request["assignment"]).get(grade_id)
+    if check is None:
+        return Verdict(grade_id, False, f"the judge has no check named {grade_id}", broken=True)
+    kernel = kernels.get(request["connection_file"])
+    if kernel is None:
+        kernel = kernels[request["connection_file"]] = Kernel(request["connection_file"])
+    try:
+        check(Judgement(kernel, Path(request["folder"])))
+        return Verdict(grade_id, True)
+    except JudgeTimeout as exc:
+        return Verdict(grade_id, False, f"timeout: {exc}", timeout=True)
+    except AssertionError as exc:
+        return Verdict(grade_id, False, str(exc))
+    except Exception:  # the judge's own failure: say so, never pass
+        tail = "\n".join(traceback.format_exc().strip().splitlines()[-4:])
+        return Verdict(grade_id, False, f"the judge failed on this check:\n{tail}", broken=True)
+    finally:
+        ros.reset()
+        try:
+            kernel.call("stop", guard=10.0)
+        except Exception:  # noqa: S110 - the kernel's state is the student's
+            pass
+
+
+@contextmanager
+def _stdout_for_verdicts() -> Iterator[Any]:
+    """Verdicts travel on the original stdout; everything else printed goes to stderr
+    (rcl's log lines write to file descriptor 1)."""
+    verdicts = os.fdopen(os.dup(1), "w", buffering=1)
+    os.dup2(2, 1)
+    try:
+        yield verdicts
+    finally:
+        verdicts.close()
+
+
+def serve() -> None:
+    join_network()
+    ros.init()
+    kernels: dict[str, Kernel] = {}
+    with _stdout_for_verdicts() as verdicts:
+        try:
+            for line in sys.stdin:
+                if line.strip():
+                    started = time.monotonic()
+                    verdict = judge_one(json.loads(line), kernels)
+                    took = time.monotonic() - started
+                    print(
+                        f"[judge] {verdict.grade_id}: {verdict.passed} in {took:.2f} s", flush=True
+                    )
+                    verdicts.write(json.dumps(asdict(verdict)) + "\n")
+        finally:
+            for kernel in kernels.values():
+                kernel.close()
+            ros.shutdown()
+
+
+if __name__ == "__main__":
+    # Run the module's own copy (not ``__main__``'s), so the checks' exceptions are the
+    # classes ``judge_one`` catches.
+    from autograder import judge
+
+    judge.serve()

@@ -1,0 +1,177 @@
+"""The grader's side of the judge: ask for verdicts while nbgrader runs, score with them.
+
+``JudgedExecute`` is nbgrader's ``Execute`` preprocessor that, just before each judged
+test cell runs in the student's kernel, asks the judge process (``autograder.judge``)
+for its verdict on that cell, with the kernel in the state the student's cells left it.
+The verdicts stay in the grading worker, outside the kernel; ``apply_verdicts`` then
+makes them the cells' scores in the gradebook (as nbgrader's manual score, so
+feedback and totals show them) and names the cells whose output claimed a pass the
+judge did not give.
+"""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from collections.abc import Iterator
+from contextlib import contextmanager
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from nbformat import NotebookNode
+from nbgrader.api import Gradebook
+from nbgrader.preprocessors import Execute
+
+from autograder import sandbox
+from autograder.feedback import is_test_cell
+from autograder.judge import Verdict, judged_checks
+from autograder.kernels import CappedExecute
+
+#: Wall-clock guard on one verdict (a hang guard: hitting it is a "timeout").
+VERDICT_GUARD_S = 300.0
+
+
+@dataclass
+class Judging:
+    """One submission's judge process and the verdicts it gave."""
+
+    assignment_id: str
+    checks: set[str]
+    verdicts: dict[str, Verdict] = field(default_factory=dict)
+    process: subprocess.Popen[str] | None = None
+
+    def verdict(self, grade_id: str, connection_file: str, folder: str) -> Verdict:
+        if self.process is None or self.process.poll() is not None:
+            argv = [sys.executable, "-I", "-m", "autograder.judge"]
+            network = sandbox.current_network()  # the kernel's: the judge joins it
+            self.process = subprocess.Popen(
+                network.join_argv(argv) if network is not None else argv,
+                stdin=subprocess.PIPE,
+                stdout=subprocess.PIPE,
+                text=True,
+                cwd=Path(__file__).resolve().parent.parent,
+                start_new_session=True,
+            )
+        assert self.process.stdin is not None and self.process.stdout is not None
+        request = {
+            "assignment": self.assignment_id,
+            "check": grade_id,
+            "connection_file": connection_file,
+            "folder": folder,
+        }
+        try:
+            self.process.stdin.write(json.dumps(request) + "\n")
+            self.process.stdin.flush()
+            line = _read_line(self.process, VERDICT_GUARD_S)
+        except OSError:
+            line = ""
+        if line is None:
+            self.stop()
+            return Verdict(grade_id, False, "timeout: the judge gave no verdict", timeout=True)
+        if not line:
+            self.stop()
+            return Verdict(grade_id, False, "the judge process died on this check", broken=True)
+        return Verdict(**json.loads(line))
+
+    def stop(self) -> None:
+        if self.process is not None:
+            if self.process.stdin is not None:
+                self.process.stdin.close()
+            try:
+                self.process.wait(timeout=30)
+            except subprocess.TimeoutExpired:
+                self.process.kill()
+                self.process.wait()
+            self.process = None
+
+
+def _read_line(process: subprocess.Popen[str], timeout: float) -> str | None:
+    """One line from the judge; "" when it died, None after ``timeout`` seconds."""
+    import select
+
+    assert process.stdout is not None
+    ready, _, _ = select.select([process.stdout], [], [], timeout)
+    return process.stdout.readline() if ready else None
+
+
+_current: Judging | None = None
+
+
+@contextmanager
+def judging(assignment_id: str) -> Iterator[Judging]:
+    """Judge the test cells of ``assignment_id`` for the nbgrader run inside this block."""
+    global _current
+    sandboxed = sandbox.current_network() is not None
+    _current = Judging(assignment_id, set(judged_checks(assignment_id, sandboxed)))
+    try:
+        yield _current
+    finally:
+        _current.stop()
+        _current = None
+
+
+class JudgedExecute(CappedExecute):  # type: ignore[misc]
+    """nbgrader's Execute (output capped, as for every kernel), with the judge's verdict
+    taken before each judged test cell."""
+
+    def preprocess_cell(
+        self, cell: NotebookNode, resources: dict[str, Any], index: int
+    ) -> tuple[NotebookNode, dict[str, Any]]:
+        grade_id = cell.get("metadata", {}).get("nbgrader", {}).get("grade_id")
+        if _current is not None and is_test_cell(cell) and grade_id in _current.checks:
+            folder = getattr(self.km, "sandbox_folder", None) or resources.get("metadata", {}).get(
+                "path", "."
+            )
+            _current.verdicts[grade_id] = _current.verdict(
+                grade_id, self.km.connection_file, str(Path(folder).resolve())
+            )
+        return super().preprocess_cell(cell, resources, index)  # type: ignore[no-any-return]
+
+
+def judged_preprocessors() -> list[type]:
+    """nbgrader's autograde preprocessors with ``Execute`` replaced by ``JudgedExecute``."""
+    from nbgrader.converters import Autograde
+
+    default = Autograde.class_traits()["autograde_preprocessors"].default()
+    return [JudgedExecute if p in (Execute, CappedExecute) else p for p in default]
+
+
+@dataclass
+class Judged:
+    """What the verdicts changed: cells whose output claimed a pass the judge did not
+    give, cells the judge timed out on or could not judge, and the judge's messages."""
+
+    claimed: list[str] = field(default_factory=list)
+    timed_out: list[str] = field(default_factory=list)
+    broken: list[str] = field(default_factory=list)
+    messages: dict[str, str] = field(default_factory=dict)
+
+
+def apply_verdicts(
+    gradebook: Path, assignment_id: str, student_id: str, notebook: str, run: Judging
+) -> Judged:
+    """Make the judge's verdicts the scores of the judged cells; a judged cell with no
+    verdict (never reached, judge failed) scores nothing."""
+    judged = Judged()
+    with Gradebook(f"sqlite:///{gradebook}") as gb:
+        sub = gb.find_submission_notebook(notebook, assignment_id, student_id)
+        for grade in sub.grades:
+            if grade.name not in run.checks:
+                continue
+            verdict = run.verdicts.get(grade.name)
+            passed = verdict is not None and verdict.passed
+            grade.manual_score = grade.max_score if passed else 0.0
+            if verdict is not None and verdict.timeout:
+                judged.timed_out.append(grade.name)
+            elif verdict is None or verdict.broken:
+                judged.broken.append(grade.name)
+            elif not passed and (grade.auto_score or 0) > 0:
+                judged.claimed.append(grade.name)
+            if not passed:
+                judged.messages[grade.name] = (
+                    verdict.message if verdict else "the judge gave no verdict on this cell"
+                )
+        gb.db.commit()
+    return judged

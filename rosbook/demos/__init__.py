@@ -1,0 +1,1 @@
+"""The chapters' experiments (``qos``) and demo nodes to try the ``ros2`` verbs on (``nodes``)."""

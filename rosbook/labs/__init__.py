@@ -1,0 +1,1 @@
+"""Each lab's checks (``labNN``) and the probes they share (``probes``)."""

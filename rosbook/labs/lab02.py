@@ -1,0 +1,335 @@
+"""Checks for lab 2 (QoS): a student's publishers and subscriptions against real DDS peers,
+their KEEP_LAST model against the reference, their compatibility rules against rclpy's.
+
+Every failure is a ``CheckFailed`` (an ``AssertionError``) that names the mistake (a
+VOLATILE publisher for a late joiner, a RELIABLE subscription to a sensor stream, a queue
+one message too deep).
+"""
+
+from __future__ import annotations
+
+import itertools
+from collections.abc import Callable, Sequence
+from typing import Any
+
+from rclpy.duration import Duration
+from rclpy.event_handler import PublisherEventCallbacks, SubscriptionEventCallbacks
+from rclpy.node import Node
+from rclpy.publisher import Publisher
+from rclpy.qos import (
+    DurabilityPolicy,
+    LivelinessPolicy,
+    QoSPolicyKind,
+    QoSProfile,
+    ReliabilityPolicy,
+    qos_profile_parameters,
+    qos_profile_sensor_data,
+    qos_profile_services_default,
+    qos_profile_system_default,
+)
+from rclpy.subscription import Subscription
+from sensor_msgs.msg import LaserScan
+from std_msgs.msg import String
+
+from rosbook.demos.qos import POLICIES, predict_processed, rclpy_incompatible_policies
+from rosbook.labs.probes import (
+    MATCH_TIMEOUT_S,
+    CheckFailed,
+    make_node,
+    node_publishes,
+    node_subscribes,
+)
+from rosbook.runtime.session import ros
+
+#: How a typical late joiner (a map display, say) subscribes.
+LATE_JOINER_QOS = QoSProfile(
+    depth=1,
+    reliability=ReliabilityPolicy.RELIABLE,
+    durability=DurabilityPolicy.TRANSIENT_LOCAL,
+)
+
+
+def describe(qos: QoSProfile) -> str:
+    """``RELIABLE, VOLATILE, depth 10, deadline 1 s``: the policies a mismatch is about."""
+    deadline = qos.deadline.nanoseconds
+    parts = [qos.reliability.name, qos.durability.name, f"depth {qos.depth}"]
+    parts.append(f"deadline {deadline / 1e9:g} s" if deadline else "no deadline")
+    return ", ".join(parts)
+
+
+def _policy(info: Any) -> str:
+    return QoSPolicyKind(info.last_policy_kind).name
+
+
+def _returned(value: Any, kind: type, call: str) -> None:
+    if not isinstance(value, kind):
+        raise CheckFailed(
+            f"{call} returned {type(value).__name__} ({value!r}); it must return the "
+            f"{kind.__name__} it created (return node.create_...(...))"
+        )
+
+
+# -- map_publisher ----------------------------------------------------------------------
+
+
+def assert_late_joiner_gets_last(
+    make_map_publisher: Callable[[Node], Publisher],
+    maps: Sequence[str],
+    node_name: str = "map_server",
+    joiner_qos: QoSProfile = LATE_JOINER_QOS,
+) -> list[str]:
+    """Publish ``maps`` with nobody listening, then subscribe: the last must still arrive.
+
+    Returns what the late joiner received.
+    """
+    ros.reset()
+    node = Node(node_name)
+    publisher = make_node(make_map_publisher, node)
+    _returned(publisher, Publisher, "make_map_publisher(node)")
+    node_publishes(node, "map", String)
+    for text in maps:
+        publisher.publish(String(data=text))
+    ros.spin_for(0.05, node)
+    events: list[str] = []
+    got: list[str] = []
+    joiner = Node("late_joiner")
+    subscription = joiner.create_subscription(
+        String,
+        "map",
+        lambda msg: got.append(msg.data),
+        joiner_qos,
+        event_callbacks=SubscriptionEventCallbacks(
+            incompatible_qos=lambda info: events.append(_policy(info))
+        ),
+    )
+    ros.spin_until(
+        lambda: subscription.get_publisher_count() > 0 or bool(events), timeout=MATCH_TIMEOUT_S
+    )
+    offered = publisher.qos_profile
+    if events or subscription.get_publisher_count() == 0:
+        if offered.durability != DurabilityPolicy.TRANSIENT_LOCAL:
+            raise CheckFailed(
+                f"a subscriber that joins after the last publish (TRANSIENT_LOCAL, as map "
+                f"displays subscribe) cannot even connect: your publisher is "
+                f"{describe(offered)}. A {offered.durability.name} publisher keeps nothing "
+                "for late joiners; use durability=DurabilityPolicy.TRANSIENT_LOCAL."
+            )
+        raise CheckFailed(
+            f"the late joiner ({describe(joiner_qos)}) does not connect to your publisher "
+            f"({describe(offered)}); incompatible policy reported: "
+            f"{', '.join(events) or 'none'}. A late joiner asks for RELIABLE delivery."
+        )
+    ros.spin_until(lambda: maps[-1] in got, timeout=1.0)
+    ros.spin_for(0.05)
+    ros.remove(joiner)
+    if not got:
+        raise CheckFailed(
+            f"published {list(maps)!r} on /map before anyone subscribed; a late joiner "
+            f"received nothing. Your publisher is {describe(offered)}: it must keep the "
+            "last message for late joiners (TRANSIENT_LOCAL, depth at least 1)."
+        )
+    if got[-1] != maps[-1]:
+        raise CheckFailed(
+            f"published {list(maps)!r} before the late joiner subscribed; it received "
+            f"{got!r}, and the last message it got is not the last one published."
+        )
+    return got
+
+
+# -- scan_subscription ------------------------------------------------------------------
+
+
+def make_scan(index: int) -> LaserScan:
+    scan = LaserScan()
+    scan.header.frame_id = "laser"
+    scan.angle_min, scan.angle_max, scan.angle_increment = -1.0, 1.0, 0.5
+    scan.range_min, scan.range_max = 0.1, 10.0
+    scan.ranges = [float(index) + 0.25 * k for k in range(5)]
+    return scan
+
+
+def assert_receives_sensor_data(
+    make_scan_subscription: Callable[[Node, Callable[[Any], None]], Subscription],
+    count: int,
+    node_name: str = "scan_listener",
+    sensor_qos: QoSProfile = qos_profile_sensor_data,
+) -> list[LaserScan]:
+    """A publisher with ``sensor_qos`` sends ``count`` scans; the callback must get them."""
+    ros.reset()
+    node = Node(node_name)
+    got: list[LaserScan] = []
+    subscription = make_node(make_scan_subscription, node, got.append)
+    _returned(subscription, Subscription, "make_scan_subscription(node, callback)")
+    node_subscribes(node, "scan", LaserScan)
+    events: list[str] = []
+    sensor = Node("lidar_driver")
+    publisher = sensor.create_publisher(
+        LaserScan,
+        "scan",
+        sensor_qos,
+        event_callbacks=PublisherEventCallbacks(
+            incompatible_qos=lambda info: events.append(_policy(info))
+        ),
+    )
+    ros.spin_until(
+        lambda: publisher.get_subscription_count() > 0 or bool(events), timeout=MATCH_TIMEOUT_S
+    )
+    asked = subscription.qos_profile
+    if events or publisher.get_subscription_count() == 0:
+        ros.remove(sensor)
+        if asked.reliability == ReliabilityPolicy.RELIABLE:
+            raise CheckFailed(
+                f"your subscription ({describe(asked)}) asks for RELIABLE delivery, which a "
+                f"BEST_EFFORT sensor publisher ({describe(sensor_qos)}, that is "
+                "qos_profile_sensor_data) does not offer: they never connect and the "
+                "callback is never called. Subscribe with qos_profile_sensor_data."
+            )
+        raise CheckFailed(
+            f"your subscription ({describe(asked)}) does not connect to a publisher using "
+            f"qos_profile_sensor_data; incompatible policy: {', '.join(events) or 'none'}."
+        )
+    for index in range(count):
+        publisher.publish(make_scan(index))
+        ros.spin_for(0.01)
+    ros.spin_until(lambda: len(got) >= count, timeout=1.0)
+    ros.remove(sensor)
+    if not got:
+        raise CheckFailed(
+            f"the subscription is connected but the callback received none of {count} "
+            "scans: does make_scan_subscription pass `callback` to create_subscription?"
+        )
+    if not all(isinstance(m, LaserScan) for m in got):
+        raise CheckFailed("the callback must receive the LaserScan messages themselves")
+    expected = [list(make_scan(i).ranges) for i in range(count)]
+    received = [list(m.ranges) for m in got]
+    if any(r not in expected for r in received):
+        raise CheckFailed("the scans the callback received differ from those sent")
+    return got
+
+
+# -- slow_subscriber_model --------------------------------------------------------------
+
+#: (publish_hz, callback_s, depth, duration_s) sets the hidden check uses. Where a finish
+#: and an arrival meet (the tie rule), both instants are exact binary floats, so any
+#: correct float implementation agrees with the exact reference.
+MODEL_CASES: tuple[tuple[float, float, int, float], ...] = (
+    (2, 1.7, 3, 6),
+    (2, 1.7, 3, 4),
+    (2, 1.7, 1, 6),
+    (2, 1.7, 5, 8),
+    (2, 1.7, 3, 5.2),
+    (2, 0.1, 3, 6),
+    (2, 0.5, 1, 4),
+    (2, 1.5, 1, 3),
+    (4, 0.75, 2, 3),
+    (1, 2.5, 2, 10),
+    (10, 0.37, 2, 2),
+    (5, 1.33, 4, 6),
+    (2, 1.7, 3, 0),
+    (1, 5.0, 100, 4),
+)
+
+
+def assert_model_matches(
+    predict: Callable[[float, float, int, float], Sequence[int]],
+    cases: Sequence[tuple[float, float, int, float]],
+) -> None:
+    """``predict`` must give the reference answer on every case; explain the first miss."""
+    for hz, work, depth, duration in cases:
+        call = f"predict_processed({hz!r}, {work!r}, {depth!r}, {duration!r})"
+        try:
+            got = predict(hz, work, depth, duration)
+        except Exception as exc:  # the student's function failed: say where
+            raise CheckFailed(f"{call} raised {type(exc).__name__}: {exc}") from None
+        if not isinstance(got, (list, tuple)):
+            raise CheckFailed(f"{call} returned {type(got).__name__}, not a list of ints")
+        got = list(got)
+        want = predict_processed(hz, work, depth, duration)
+        if got == want:
+            continue
+        hint = _model_hint(got, hz, work, depth, duration)
+        raise CheckFailed(f"{call} returned {got}, expected {want}. {hint}")
+
+
+def _model_hint(got: list[int], hz: float, work: float, depth: int, duration: float) -> str:
+    """Name the usual mistake when ``got`` is what it would produce."""
+    for other in (depth - 1, depth + 1):
+        if other >= 1 and got == predict_processed(hz, work, other, duration):
+            return (
+                f"That is the answer for a queue of depth {other}: the queue holds at most "
+                "`depth` messages that wait; the one the callback works on has left it."
+            )
+    if got == predict_processed(hz, work, depth, duration + 0.5 / hz):
+        return "Messages are published while t < duration_s, not t <= duration_s."
+    want = predict_processed(hz, work, depth, duration)
+    if got and got == want[: len(got)]:
+        return "After the last publish the subscriber still drains its queue."
+    if sorted(got) != got:
+        return "The callback takes messages oldest first."
+    return (
+        "Walk through the arrivals one by one: an idle callback starts at once, a full "
+        "queue drops its oldest, a finish at the instant of an arrival comes first."
+    )
+
+
+# -- qos_incompatibilities --------------------------------------------------------------
+
+
+def qos_profiles() -> list[QoSProfile]:
+    """Profiles across the three policies, plus rclpy's predefined ones."""
+    made = [
+        QoSProfile(
+            depth=depth,
+            reliability=reliability,
+            durability=durability,
+            deadline=Duration(seconds=deadline),
+            liveliness=LivelinessPolicy.AUTOMATIC,
+        )
+        for (reliability, durability, deadline), depth in zip(
+            itertools.product(
+                (ReliabilityPolicy.RELIABLE, ReliabilityPolicy.BEST_EFFORT),
+                (DurabilityPolicy.VOLATILE, DurabilityPolicy.TRANSIENT_LOCAL),
+                (0, 0.1, 1.0, 2.5),
+            ),
+            itertools.cycle((1, 5, 10)),
+        )
+    ]
+    return made + [
+        qos_profile_sensor_data,
+        qos_profile_system_default,
+        qos_profile_services_default,
+        qos_profile_parameters,
+        QoSProfile(depth=10),
+    ]
+
+
+def assert_incompatibilities_match(
+    incompatible: Callable[[QoSProfile, QoSProfile], Any],
+    pairs: Sequence[tuple[QoSProfile, QoSProfile]],
+) -> None:
+    """``incompatible(pub, sub)`` must name exactly the policies rclpy's check rejects."""
+    for pub, sub in pairs:
+        call = f"incompatible_policies(publisher: {describe(pub)}; subscription: {describe(sub)})"
+        try:
+            got = incompatible(pub, sub)
+        except Exception as exc:  # the student's function failed: say how
+            raise CheckFailed(f"{call} raised {type(exc).__name__}: {exc}") from None
+        if not isinstance(got, (set, frozenset)) or not all(isinstance(p, str) for p in got):
+            raise CheckFailed(f"{call} returned {got!r}: it must return a set of str")
+        unknown = set(got) - set(POLICIES)
+        if unknown:
+            raise CheckFailed(
+                f"{call} returned {sorted(got)}: {sorted(unknown)} is not one of {list(POLICIES)}"
+            )
+        want = rclpy_incompatible_policies(pub, sub)
+        if set(got) != want:
+            extra, missing = sorted(set(got) - want), sorted(want - set(got))
+            detail = []
+            if missing:
+                detail.append(f"{missing} stop(s) this pair from connecting")
+            if extra:
+                detail.append(f"{extra} do(es) not: a subscription may ask for less than offered")
+            raise CheckFailed(
+                f"{call} returned {sorted(got)}; rclpy's own check (qos_check_compatible) "
+                f"says {sorted(want)}: " + "; ".join(detail) + "."
+            )

@@ -1,0 +1,459 @@
+"""Checks for lab 6: a student's package manifest built with colcon, and a launch of two robots.
+
+The package is ``robot_talk``: a talker whose rate is a parameter and a listener, laid
+out by ``write_layout``. ``build_package`` builds it with the student's ``package.xml``
+and ``setup.py`` in a scratch workspace, for real; ``check_two_robots`` launches the
+student's description against a reference build and inspects the ROS graph on
+simulated time. Failures are ``CheckFailed`` errors (``AssertionError``s) naming the mistake.
+"""
+
+from __future__ import annotations
+
+import atexit
+import re
+import shutil
+import time
+from collections.abc import Callable, Iterable
+from dataclasses import dataclass, field
+from functools import cache
+from importlib.resources import files
+from pathlib import Path
+
+from std_msgs.msg import String
+
+from rosbook.labs.probes import CheckFailed, Probe
+from rosbook.launch.launcher import (
+    Launch,
+    LaunchDescription,
+    LaunchError,
+    Node,
+    SetParameter,
+    launch,
+)
+from rosbook.launch.workspace import ColconRun, Workspace, create_package, executables, packages
+from rosbook.runtime.session import ros
+
+PACKAGE = "robot_talk"
+VERSION = "1.0.0"
+DEPENDENCIES = ("rclpy", "std_msgs")
+EXECUTABLES = {"talker": "robot_talk.talker:main", "listener": "robot_talk.listener:main"}
+LAUNCH_FILE = "talk.launch.py"
+
+#: The reference package, all but its manifest: real files (ruff lints them), shipped
+#: as package data.
+REFERENCE = Path(str(files("rosbook") / "reference" / "lab06_package" / PACKAGE))
+
+
+def write_layout(destination: str | Path) -> Path:
+    """Write the ``robot_talk`` package, all but its manifest, into ``destination``."""
+    root = Path(destination) / PACKAGE
+    shutil.copytree(
+        REFERENCE, root, dirs_exist_ok=True, ignore=shutil.ignore_patterns("__pycache__")
+    )
+    return root
+
+
+# -- task 1: the manifest, built for real ------------------------------------------------
+
+
+@dataclass
+class BuiltPackage:
+    """A scratch workspace with ``robot_talk`` in it, after ``colcon build``."""
+
+    workspace: Workspace
+    build: ColconRun
+    env: dict[str, str] = field(default_factory=dict)
+
+    @property
+    def source(self) -> Path:
+        return self.workspace.src / PACKAGE
+
+
+_builds: dict[tuple[str, str], BuiltPackage] = {}
+
+
+def _scratch(prefix: str) -> Workspace:
+    """A scratch workspace that is deleted when this process exits (graders make many)."""
+    ws = Workspace.scratch(prefix)
+    atexit.register(ws.remove)
+    return ws
+
+
+def build_package(package_xml: str, setup_py: str) -> BuiltPackage:
+    """Lay out ``robot_talk`` with these manifests in a scratch workspace; colcon-build it.
+
+    The same two texts are built once per process (a check after a try-it cell reuses
+    the build).
+    """
+    key = (package_xml, setup_py)
+    if key in _builds and _builds[key].workspace.root.exists():
+        return _builds[key]
+    ws = _scratch("lab06_ws_")
+    root = write_layout(ws.src)
+    (root / "package.xml").write_text(package_xml)
+    (root / "setup.py").write_text(setup_py)
+    run = ws.build()
+    built = BuiltPackage(ws, run)
+    if run.ok:
+        built.env = ws.environ()
+    _builds[key] = built
+    return built
+
+
+def _tail(text: str, lines: int = 12) -> str:
+    return "\n".join(text.strip().splitlines()[-lines:])
+
+
+def assert_built(built: BuiltPackage) -> None:
+    """colcon succeeded and the package is in the ament index under its name."""
+    run = built.build
+    if not run.ok:
+        hint = ""
+        if "resource/" in run.output and "can't copy" in run.output:
+            hint = (
+                " setup.py installs 'resource/' + package_name as the package marker: "
+                f"package_name in setup.py must be '{PACKAGE}', the name in package.xml."
+            )
+        elif "SyntaxError" in run.output or "Traceback" in run.output:
+            hint = " setup.py does not run: look at the Python error above."
+        raise CheckFailed(
+            f"colcon build failed (exit code {run.returncode}).{hint}\n"
+            f"colcon printed:\n{_tail(run.output)}"
+        )
+    manifest = _parse_manifest(built)
+    if manifest.name != PACKAGE:
+        raise CheckFailed(
+            f"package.xml names the package '{manifest.name}'; the folder and the task "
+            f"call it '{PACKAGE}'"
+        )
+    if PACKAGE not in packages(built.env):
+        raise CheckFailed(
+            f"colcon built the folder, but '{PACKAGE}' is not in the ament index, so "
+            "`ros2 run` cannot find it. setup.py's data_files must install "
+            f"('share/ament_index/resource_index/packages', ['resource/{PACKAGE}'])."
+        )
+
+
+def _parse_manifest(built: BuiltPackage):  # -> catkin_pkg.package.Package
+    from catkin_pkg.package import InvalidPackage, parse_package
+
+    try:
+        return parse_package(str(built.source / "package.xml"))
+    except InvalidPackage as error:
+        raise CheckFailed(
+            f"package.xml is not a valid manifest: {str(error).splitlines()[-1]}. colcon "
+            "then builds the folder as a plain Python package, outside the ament index, "
+            "so `ros2 run` and `ros2 launch` cannot find it."
+        ) from None
+    except Exception as error:  # not XML at all
+        raise CheckFailed(f"package.xml cannot be read as XML: {error}") from None
+
+
+def setup_py_version(built: BuiltPackage) -> str | None:
+    """The version setup.py gave, read back from the build's egg-info."""
+    for info in (built.workspace.root / "build" / PACKAGE).glob("*.egg-info/PKG-INFO"):
+        match = re.search(r"^Version: (.+)$", info.read_text(), re.MULTILINE)
+        if match:
+            return match.group(1).strip()
+    return None
+
+
+def assert_versions_agree(built: BuiltPackage, expected: str = VERSION) -> None:
+    """package.xml and setup.py state the same version, the one the task asks for."""
+    xml_version = _parse_manifest(built).version
+    py_version = setup_py_version(built)
+    if py_version != xml_version:
+        raise CheckFailed(
+            f"package.xml says version {xml_version} but setup.py says {py_version}: "
+            "colcon builds it anyway, without a word, but the two must agree (tools and "
+            "the package index read package.xml, Python reads setup.py)"
+        )
+    if xml_version != expected:
+        raise CheckFailed(f"the version is {xml_version}; the task asks for {expected}")
+
+
+def assert_dependencies(built: BuiltPackage, needed: Iterable[str] = DEPENDENCIES) -> None:
+    """package.xml declares every package the nodes import, for run time."""
+    manifest = _parse_manifest(built)
+    declared = {dep.name for dep in manifest.exec_depends}
+    missing = [name for name in needed if name not in declared]
+    if missing:
+        tags = " ".join(f"<depend>{name}</depend>" for name in missing)
+        raise CheckFailed(
+            f"package.xml does not declare {', '.join(missing)} as a run-time dependency "
+            f"(the nodes import them): add {tags}"
+        )
+
+
+def assert_executables(built: BuiltPackage, expected: dict[str, str] = EXECUTABLES) -> None:
+    """Every node is an executable of the package (an entry point in setup.py)."""
+    have = executables(PACKAGE, built.env)
+    missing = [name for name in expected if name not in have]
+    if missing:
+        entries = ", ".join(f"'{name} = {expected[name]}'" for name in missing)
+        raise CheckFailed(
+            f"`ros2 run {PACKAGE} {missing[0]}` finds no executable '{missing[0]}': the "
+            f"package's executables are {have or 'none'}. The entry point is not "
+            f"registered: add {entries} to entry_points={{'console_scripts': [...]}} in "
+            "setup.py"
+        )
+
+
+def assert_installed(built: BuiltPackage, relative: str = f"launch/{LAUNCH_FILE}") -> None:
+    """A data file was installed into ``share/robot_talk/``."""
+    share = built.workspace.install / PACKAGE / "share" / PACKAGE
+    if not (share / relative).exists():
+        folder = relative.split("/")[0]
+        raise CheckFailed(
+            f"{relative} was not installed into share/{PACKAGE}/{folder}/, so "
+            f"`ros2 launch {PACKAGE} {Path(relative).name}` cannot find it: add "
+            f"(os.path.join('share', package_name, '{folder}'), glob('{folder}/*')) "
+            "to data_files in setup.py"
+        )
+
+
+def assert_runs(
+    built: BuiltPackage, executable: str, topic: str = "/chatter", publishes: bool = True
+) -> list[str]:
+    """``ros2 run robot_talk EXECUTABLE`` starts a node that uses ``topic``; Ctrl-C stops it."""
+    ros.init()
+    description = LaunchDescription([Node(package=PACKAGE, executable=executable)])
+    try:
+        system = launch(description, env=built.env, echo=None)
+    except LaunchError as error:
+        raise CheckFailed(str(error)) from None
+    probe = Probe(topic, String, name=f"probe_{executable}")
+    try:
+        if publishes:
+            ok = ros.spin_until(
+                lambda: bool(probe.received.messages) or not system.running(), timeout=10.0
+            )
+            what = f"publish on {topic}"
+        else:
+            ok = ros.spin_until(
+                lambda: probe.node.count_subscribers(topic) > 1 or not system.running(),
+                timeout=10.0,
+            )
+            what = f"subscribe to {topic}"
+        if not system.running():
+            system.wait(1.0)
+            raise CheckFailed(
+                f"`ros2 run {PACKAGE} {executable}` exited by itself; it printed:\n"
+                + _tail("\n".join(system.processes[0].lines), 8)
+            )
+        if not ok:
+            raise CheckFailed(
+                f"`ros2 run {PACKAGE} {executable}` runs but did not {what} within 10 s: "
+                f"does its entry point name the right module ({EXECUTABLES.get(executable)})?"
+            )
+    finally:
+        codes = system.shutdown(sigterm_timeout=3.0, sigkill_timeout=2.0)
+        probe.close()
+    return [f"{name}: exit code {code}" for name, code in codes.items()]
+
+
+# -- task 2: two robots, launched and inspected ------------------------------------------
+
+
+def add_reference_package(src: str | Path) -> Path:
+    """``robot_talk`` in ``src`` with a manifest made by ``ros2 pkg create`` (+ entry points)."""
+    root = create_package(
+        PACKAGE,
+        src,
+        dependencies=DEPENDENCIES,
+        version=VERSION,
+        license="Apache-2.0",
+        maintainer_name="Course Staff",
+        maintainer_email="staff@example.com",
+        description="A talker and a listener",
+        log=None,
+    )
+    write_layout(src)
+    setup = (root / "setup.py").read_text()
+    entries = "".join(f"\n            '{n} = {target}'," for n, target in EXECUTABLES.items())
+    setup = setup.replace("'console_scripts': [", "'console_scripts': [" + entries)
+    setup = setup.replace(
+        "('share/' + package_name, ['package.xml']),",
+        "('share/' + package_name, ['package.xml']),\n"
+        "        ('share/' + package_name + '/launch', glob('launch/*.launch.py')),",
+    )
+    (root / "setup.py").write_text("from glob import glob\n" + setup)
+    return root
+
+
+@cache
+def reference_workspace() -> Workspace:
+    """A workspace with the reference ``robot_talk``, built once per process."""
+    ws = _scratch("lab06_ref_")
+    add_reference_package(ws.src)
+    run = ws.build()
+    if not run.ok:
+        raise RuntimeError(f"the reference robot_talk did not build:\n{run.output}")
+    return ws
+
+
+ROBOTS = {"robot1": 2.0, "robot2": 5.0}
+
+
+@dataclass
+class TwoRobotsReport:
+    """What one launch of the student's description showed."""
+
+    nodes: list[str]
+    counts: dict[str, int]
+    seconds: float
+    exit_codes: dict[str, int]
+    output: list[str]
+
+    def assert_rates(self, rates: dict[str, float] = ROBOTS, tolerance: int = 1) -> None:
+        """Each robot's talker published ``rate * seconds`` messages (simulated time)."""
+        for robot, rate in rates.items():
+            got = self.counts.get(robot, 0)
+            want = round(rate * self.seconds)
+            if abs(got - want) > tolerance:
+                seen = got / self.seconds
+                raise CheckFailed(
+                    f"/{robot}/chatter carried {got} messages in {self.seconds:g} s of "
+                    f"simulated time, that is {seen:g} Hz; expected {rate:g} Hz ({want} "
+                    f"messages): give {robot}'s talker parameters=[{{'rate': {rate}}}]"
+                )
+
+
+def _expected_nodes(robots: Iterable[str]) -> list[str]:
+    return sorted(f"/{robot}/{name}" for robot in robots for name in ("talker", "listener"))
+
+
+def check_two_robots(
+    generate: Callable[[], LaunchDescription], seconds: float = 2.0
+) -> TwoRobotsReport:
+    """Launch ``generate()``, check the graph, drive /clock for ``seconds``, stop it."""
+    try:
+        description = generate()
+    except Exception as error:
+        raise CheckFailed(
+            f"generate_launch_description() raised {type(error).__name__}: {error}"
+        ) from None
+    if not isinstance(description, LaunchDescription):
+        raise CheckFailed(
+            "generate_launch_description() must return LaunchDescription([...]), "
+            f"not {type(description).__name__}"
+        )
+    ws = reference_workspace()
+    env = ws.environ()
+    clock = ros.sim_clock()
+    full = LaunchDescription([SetParameter("use_sim_time", True), *description.entities])
+    try:
+        system = launch(full, env=env, echo=None)
+    except LaunchError as error:
+        raise CheckFailed(str(error)) from None
+    probes = {robot: Probe(f"/{robot}/chatter", String, name="rate") for robot in ROBOTS}
+    try:
+        expected = _expected_nodes(ROBOTS)
+        nodes = _wait_for_nodes(system, probes["robot1"], expected)
+        _assert_graph(system, probes["robot1"], nodes, expected)
+        local = len(ros.nodes)
+        if not ros.spin_until(lambda: clock.subscriber_count() >= local + 4, timeout=10.0):
+            raise CheckFailed(
+                "the launched nodes do not all listen to /clock although the check adds "
+                "SetParameter('use_sim_time', True) first: did the description change "
+                "use_sim_time?"
+            )
+        for probe in probes.values():
+            probe.received.messages.clear()
+        clock.advance_remote(seconds, step=0.05, settle=0.02)
+        ros.spin_for(0.3)
+        counts = {robot: len(probe.received.messages) for robot, probe in probes.items()}
+    finally:
+        codes = system.shutdown(sigterm_timeout=5.0, sigkill_timeout=2.0)
+        for probe in probes.values():
+            probe.close()
+    report = TwoRobotsReport(nodes, counts, seconds, codes, system.output)
+    unclean = {name: code for name, code in codes.items() if code != 0}
+    if unclean or any(p.alive() for p in system.processes):
+        raise CheckFailed(
+            f"not every node stopped cleanly on Ctrl-C: exit codes {unclean} (0 is clean)"
+        )
+    return report
+
+
+def _graph_nodes(probe: Probe) -> list[str]:
+    return sorted(
+        f"{ns.rstrip('/')}/{name}"
+        for name, ns in probe.node.get_node_names_and_namespaces()
+        if not name.startswith(("_", "probe", "rate", "sim_clock", "sender", "rosout"))
+    )
+
+
+def _endpoints(probe: Probe, robot: str) -> tuple[dict[str, list[str]], dict[str, list[str]]]:
+    """Topics of /robot/talker's publishers and /robot/listener's subscriptions."""
+    try:
+        published = dict(probe.node.get_publisher_names_and_types_by_node("talker", f"/{robot}"))
+        subscribed = dict(
+            probe.node.get_subscriber_names_and_types_by_node("listener", f"/{robot}")
+        )
+    except Exception:  # the node is not (yet) in the graph
+        return {}, {}
+    return published, subscribed
+
+
+def _wait_for_nodes(system: Launch, probe: Probe, expected: list[str]) -> list[str]:
+    """Wait until the expected nodes and their chatter endpoints are discovered."""
+
+    def complete() -> bool:
+        nodes = _graph_nodes(probe)
+        if not all(n in nodes for n in expected):
+            return False
+        for robot in ROBOTS:
+            published, subscribed = _endpoints(probe, robot)
+            if f"/{robot}/chatter" not in published or f"/{robot}/chatter" not in subscribed:
+                return False
+        return True
+
+    deadline = time.monotonic() + 12.0
+    while time.monotonic() < deadline:
+        if complete() or not system.running():
+            break
+        ros.spin_for(0.1)
+    ros.spin_for(0.3)  # duplicates and extras show up too
+    return _graph_nodes(probe)
+
+
+def _assert_graph(system: Launch, probe: Probe, nodes: list[str], expected: list[str]) -> None:
+    died = [p for p in system.processes if not p.alive()]
+    if died:
+        system.pump(0.0)
+        last = _tail("\n".join(died[0].lines), 6)
+        hint = ""
+        if "InvalidParameterTypeException" in last:
+            hint = " The rate must be a float: {'rate': 5.0}, not {'rate': 5}."
+        raise CheckFailed(
+            f"{died[0].name} ({died[0].node.namespace or '/'}) exited right after the "
+            f"launch with code {died[0].returncode}.{hint} It printed:\n{last}"
+        )
+    missing = [n for n in expected if n not in nodes]
+    extra = [n for n in nodes if n not in expected]
+    if missing or extra or len(system.processes) != len(expected):
+        hint = ""
+        if any(n.count("/") == 1 for n in extra):
+            hint = (
+                " A node launched without namespace= runs in the root namespace '/': "
+                "give each robot's nodes namespace='robot1' or namespace='robot2'."
+            )
+        raise CheckFailed(
+            f"the launch started {len(system.processes)} processes, and the graph holds "
+            f"{nodes}; expected exactly {expected}. Missing: {missing or 'none'}; not "
+            f"expected: {extra or 'none'}.{hint}"
+        )
+    for robot in ROBOTS:
+        published, subscribed = _endpoints(probe, robot)
+        for node, kind, found in (
+            ("talker", "publish on", published),
+            ("listener", "subscribe to", subscribed),
+        ):
+            if f"/{robot}/chatter" not in found:
+                topics = sorted(t for t in found if not t.startswith(("/rosout", "/parameter")))
+                raise CheckFailed(
+                    f"/{robot}/{node} does not {kind} /{robot}/chatter (its topics: "
+                    f"{topics}): keep the relative topic name 'chatter', without a "
+                    "remapping, so that the namespace applies to it"
+                )
