@@ -81,7 +81,7 @@ def run_goal(
     action: str,
     goal: Any,
     *,
-    timeout: float = 5.0,
+    timeout: float = 10.0,
     cancel_after: int | None = None,
     on_feedback: Callable[[Any], None] | None = None,
     on_accepted: Callable[[str], None] | None = None,
@@ -103,7 +103,7 @@ def run_goal(
     run = GoalRun()
     label = f"{node.resolve_topic_name(action)} ({interface_name(action_type)})"
     try:
-        wait_for_server(client, label, min(timeout, 2.0))
+        wait_for_server(client, label, timeout)
 
         def now() -> float:
             return node.get_clock().now().nanoseconds / 1e9
@@ -115,7 +115,7 @@ def run_goal(
                 on_feedback(message.feedback)
 
         sent = client.send_goal_async(goal, feedback_callback=feedback)
-        if not spin(sent.done, min(timeout, 2.0)):
+        if not spin(sent.done, timeout):
             raise ServiceCallError(f"action server '{label}' did not answer the goal request")
         handle = sent.result()
         run.accepted = bool(handle.accepted)
