@@ -6,12 +6,12 @@ prints or asserts is the student's to change (an input transformer can turn it i
 ``python -I -m autograder.judge`` (``-I``: the submission's folder is never on its
 ``sys.path``), that sees the student's code only through what it cannot forge:
 
-- ROS traffic: it joins the kernel's DDS network (``join_network``), publishes the
+- ROS traffic: it is started on the kernel's DDS network (the sandbox's), publishes the
   stimuli and ``/clock`` itself and records what arrives on its own subscriptions;
 - return values: it asks the kernel, over a Jupyter client of its own, to build and
   spin the student's node (the agent below) and compares what comes back;
-- programs: it starts the student's scripts itself (``student_command``) and reads
-  their exit codes.
+- programs: it starts the student's scripts itself, inside the kernel's sandbox and as
+  the student (``Judgement.student_command``), and reads their exit codes.
 
 Hidden parameters and expected values live here and in the labs' judge modules, never
 in the kernel. Protocol: one JSON request per line on stdin
@@ -40,6 +40,7 @@ from rclpy.node import Node
 from rclpy.qos import QoSProfile
 from rosgraph_msgs.msg import Clock
 
+from autograder import sandbox
 from rosbook.labs.probes import ScriptRun, run_script
 from rosbook.runtime.session import ros
 
@@ -74,36 +75,11 @@ class JudgeTimeout(Exception):
     """A hang guard was hit: the verdict is "timeout", never "wrong"."""
 
 
-def judged_checks(
-    assignment_id: str, sandboxed: bool = False
-) -> dict[str, Callable[[Judgement], None]]:
-    """The judge's checks of ``assignment_id`` by grade_id (empty: judged in-kernel).
-
-    ``sandboxed``: the kernel runs in a sandbox, and checks that would run the student's
-    programs in the judge (outside that sandbox) are left to the kernel."""
+def judged_checks(assignment_id: str) -> dict[str, Callable[[Judgement], None]]:
+    """The judge's checks of ``assignment_id`` by grade_id (empty: judged in-kernel)."""
     if assignment_id not in JUDGED_LABS:
         return {}
-    module = importlib.import_module(JUDGED_LABS[assignment_id])
-    skipped = getattr(module, "RUNS_STUDENT_PROGRAMS", set()) if sandboxed else set()
-    return {k: v for k, v in module.CHECKS.items() if k not in skipped}
-
-
-def join_network() -> None:
-    """Join the DDS network the student's kernel is on.
-
-    Today the kernel shares the worker's network namespace and the job's
-    ``ROS_DOMAIN_ID`` (inherited), so there is nothing to do. When kernels run in a
-    sandbox with a network namespace of their own, this is the one place that enters it
-    (``setns`` on the sandbox's ``/proc/<pid>/ns/net``) before any DDS participant exists.
-    """
-
-
-def student_command(argv: Sequence[str]) -> list[str]:
-    """The command that runs a student's program (``python talker.py``).
-
-    Today: as is, in the judge's environment. With a sandbox, this wraps ``argv`` in it.
-    """
-    return list(argv)
+    return importlib.import_module(JUDGED_LABS[assignment_id]).CHECKS  # type: ignore[no-any-return]
 
 
 # -- the kernel side -----------------------------------------------------------------
@@ -315,6 +291,8 @@ class Judgement:
 
     kernel: Kernel
     folder: Path
+    #: The kernel's sandbox (its first process), whose folder ``folder`` is seen through.
+    sandbox_pid: int | None = None
 
     def start_node(self, factory: str, *, sim_time: bool = False, **kwargs: Any) -> dict[str, Any]:
         """Build ``factory(**kwargs)`` in the kernel; what it says it is (name, endpoints)."""
@@ -378,7 +356,21 @@ class Judgement:
     def script(self, name: str, *ros_args: str) -> AbstractContextManager[ScriptRun]:
         """Start the student's program ``name`` (``python name --ros-args ...``) from the
         judge, so its exit code is the judge's to read; it is gone afterwards."""
-        return run_script(self.folder / name, *ros_args, cwd=self.folder, wrap=student_command)
+        return run_script(self.folder / name, *ros_args, cwd=self.folder, wrap=self.student_command)
+
+    def student_command(self, argv: Sequence[str]) -> list[str]:
+        """``argv`` (paths as the judge sees them) run where the student's code runs: in
+        the kernel's sandbox, as the student. Never as the judge."""
+        if self.sandbox_pid is None:  # an unsandboxed kernel (the student's own self-check)
+            return list(argv)
+        outside = f"/proc/{self.sandbox_pid}/root"
+
+        def inside(path: str) -> str:
+            return path[len(outside) :] if path.startswith(outside + "/") else path
+
+        return sandbox.enter_argv(
+            self.sandbox_pid, inside(str(self.folder)), [inside(a) for a in argv]
+        )
 
 
 class Unreadable:
@@ -437,7 +429,7 @@ def judge_one(request: dict[str, Any], kernels: dict[str, Kernel]) -> Verdict:
     if kernel is None:
         kernel = kernels[request["connection_file"]] = Kernel(request["connection_file"])
     try:
-        check(Judgement(kernel, Path(request["folder"])))
+        check(Judgement(kernel, Path(request["folder"]), request.get("sandbox_pid")))
         return Verdict(grade_id, True)
     except JudgeTimeout as exc:
         return Verdict(grade_id, False, f"timeout: {exc}", timeout=True)
@@ -467,7 +459,6 @@ def _stdout_for_verdicts() -> Iterator[Any]:
 
 
 def serve() -> None:
-    join_network()
     ros.init()
     kernels: dict[str, Kernel] = {}
     with _stdout_for_verdicts() as verdicts:

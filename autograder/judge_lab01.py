@@ -307,11 +307,6 @@ def wait_for_script(run: ScriptRun, listener: Listener) -> None:
         )
 
 
-#: Checks that run the student's program as a process of the judge's. Where kernels are
-#: sandboxed, the judge does not run student code outside the sandbox: these checks stay
-#: in the (sandboxed) kernel, judged as nbgrader judges them.
-RUNS_STUDENT_PROGRAMS = {"test_talker_script"}
-
 CHECKS = {
     "test_counter_publisher": check_counter_publisher,
     "test_counter_subscriber": check_counter_subscriber,

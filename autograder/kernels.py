@@ -57,6 +57,8 @@ class IpcKernelManager(AsyncKernelManager):
 
     #: The kernel's working folder seen from outside its sandbox (set once started).
     sandbox_folder: str | None = None
+    #: The sandbox's first process, by which a trusted process enters it (``enter_argv``).
+    sandbox_pid: int | None = None
 
     limits = sandbox.Limits()
 
@@ -127,7 +129,7 @@ class IpcKernelManager(AsyncKernelManager):
         threading.Thread(
             target=_copy_capped, args=(proc.stdout, KERNEL_LOG_MAX), daemon=True
         ).start()
-        pid = sandbox.sandbox_pid(launch, proc)
+        pid = self.sandbox_pid = sandbox.sandbox_pid(launch, proc)
         os.symlink(f"/proc/{pid}/root{KERNEL_DIR}", private / "sockets")
         #: The kernel's working folder as the grader (and its judge) see it from outside.
         self.sandbox_folder = (

@@ -46,11 +46,13 @@ to fix; nothing ever runs unsandboxed instead.
 from __future__ import annotations
 
 import ctypes
+import fcntl
 import json
 import os
 import resource
 import select
 import shutil
+import signal
 import subprocess
 import sys
 import time
@@ -528,13 +530,83 @@ def join(pid: int, as_owner: bool, stages: list[tuple[str, str]], cmd: list[str]
     os.execvp(cmd[0], cmd)
 
 
-def init(limits: Limits, seed: str | None, cmd: list[str]) -> None:
-    """Inside the sandbox: set the limits, copy the seed folder into the home, exec."""
+def enter_argv(pid: int, cwd: str, cmd: Sequence[str], limits: Limits = Limits()) -> list[str]:
+    """``cmd`` run as the student inside the running sandbox whose first process is ``pid``
+    (from ``cwd``, a path inside it), under the sandbox's limits.
+
+    How a trusted process runs a student's program (``python talker.py``) where the
+    student's other code runs: never as the grader. The command's own process stays
+    outside and forwards Ctrl-C (SIGINT) and SIGTERM to the program, then exits as the
+    program did: its exit code is the program's. The program gets the sandbox's
+    environment (``sandbox_env``), never the grader's.
+    """
+    own = [sys.executable, "-I", "-m", "autograder.sandbox", "enter", str(pid)]
+    own += ["--cwd", cwd, "--limits", json.dumps(asdict(limits))]
+    return [*own, "--", *cmd]
+
+
+_CLONE_NEWPID, _CLONE_NEWIPC, _CLONE_NEWUTS = 0x20000000, 0x08000000, 0x04000000
+_NS_GET_PARENT = 0xB702  # ioctl: the user namespace a user namespace was made in
+
+
+def enter(pid: int, cwd: str, limits: Limits, cmd: list[str]) -> None:
+    """Join every namespace of the sandbox whose first process is ``pid``, start ``cmd``
+    there as the student, pass it SIGINT and SIGTERM, and exit with its status."""
+    namespaces = {
+        ns: os.open(f"/proc/{pid}/ns/{ns}", os.O_RDONLY)
+        for ns in ("net", "user", "ipc", "uts", "mnt", "pid")
+    }
+    # The network belongs to the Network's user namespace; IPC, UTS, mount and PIDs to
+    # bwrap's, the parent of the sandbox's own (bwrap drops to the student's uid in a
+    # user namespace of its own). Each is joined from a user namespace with the
+    # capabilities it takes: the network from ours (its owner's parent), the others from
+    # bwrap's, and the sandbox's user namespace last.
+    _setns(namespaces["net"], _CLONE_NEWNET)
+    _setns(fcntl.ioctl(namespaces["user"], _NS_GET_PARENT), _CLONE_NEWUSER)
+    for ns, flag in (
+        ("ipc", _CLONE_NEWIPC),
+        ("uts", _CLONE_NEWUTS),
+        ("mnt", _CLONE_NEWNS),
+        ("pid", _CLONE_NEWPID),  # for the child: it is one of the sandbox's processes
+        ("user", _CLONE_NEWUSER),
+    ):
+        _setns(namespaces[ns], flag)
+    child = os.fork()
+    if child == 0:
+        try:
+            try:
+                os.setgroups([])
+            except PermissionError:  # the sandbox's user namespace denies it: none to drop
+                pass
+            os.setresgid(UID, UID, UID)
+            os.setresuid(UID, UID, UID)
+            _set_limits(limits)
+            os.chdir(cwd)
+            os.execvpe(cmd[0], cmd, sandbox_env(os.environ))
+        except BaseException as exc:  # noqa: BLE001 - the child must never return
+            print(f"autograder.sandbox enter: {exc}", file=sys.stderr, flush=True)
+            os._exit(127)
+    for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP):
+        signal.signal(sig, lambda number, _frame: os.kill(child, number))
+    _, status = os.waitpid(child, 0)
+    code = os.waitstatus_to_exitcode(status)
+    if code < 0:  # killed by a signal: so is this process, as a shell would report it
+        signal.signal(-code, signal.SIG_DFL)
+        os.kill(os.getpid(), -code)
+    sys.exit(code)
+
+
+def _set_limits(limits: Limits) -> None:
     resource.setrlimit(resource.RLIMIT_CORE, (0, 0))
     resource.setrlimit(resource.RLIMIT_AS, (limits.memory, limits.memory))
     resource.setrlimit(resource.RLIMIT_NPROC, (limits.processes, limits.processes))
     largest = limits.disk + (1 << 20)  # a full disk says ENOSPC before SIGXFSZ kills
     resource.setrlimit(resource.RLIMIT_FSIZE, (largest, largest))
+
+
+def init(limits: Limits, seed: str | None, cmd: list[str]) -> None:
+    """Inside the sandbox: set the limits, copy the seed folder into the home, exec."""
+    _set_limits(limits)
     workdir = HOME
     if seed is not None:
         workdir = f"{HOME}/{seed}"
@@ -550,11 +622,14 @@ def main(argv: list[str]) -> None:
         options = dict(zip(own[2::2], own[3::2]))
         stages = [tuple(pair) for pair in json.loads(options.get("--stages", "[]"))]
         join(int(own[1]), "--as-owner" in options, stages, cmd)  # type: ignore[arg-type]
+    elif own[0] == "enter":
+        options = dict(zip(own[2::2], own[3::2]))
+        enter(int(own[1]), options["--cwd"], Limits(**json.loads(options["--limits"])), cmd)
     elif own[0] == "init":
         options = dict(zip(own[1::2], own[2::2]))
         init(Limits(**json.loads(options["--limits"])), options.get("--seed"), cmd)
     else:
-        sys.exit(f"usage: python -m autograder.sandbox join|init ... -- CMD (got {own[0]})")
+        sys.exit(f"usage: python -m autograder.sandbox join|enter|init ... -- CMD (got {own[0]})")
 
 
 if __name__ == "__main__":

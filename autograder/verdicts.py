@@ -42,7 +42,9 @@ class Judging:
     verdicts: dict[str, Verdict] = field(default_factory=dict)
     process: subprocess.Popen[str] | None = None
 
-    def verdict(self, grade_id: str, connection_file: str, folder: str) -> Verdict:
+    def verdict(
+        self, grade_id: str, connection_file: str, folder: str, sandbox_pid: int | None = None
+    ) -> Verdict:
         if self.process is None or self.process.poll() is not None:
             argv = [sys.executable, "-I", "-m", "autograder.judge"]
             network = sandbox.current_network()  # the kernel's: the judge joins it
@@ -60,6 +62,7 @@ class Judging:
             "check": grade_id,
             "connection_file": connection_file,
             "folder": folder,
+            "sandbox_pid": sandbox_pid,
         }
         try:
             self.process.stdin.write(json.dumps(request) + "\n")
@@ -103,8 +106,7 @@ _current: Judging | None = None
 def judging(assignment_id: str) -> Iterator[Judging]:
     """Judge the test cells of ``assignment_id`` for the nbgrader run inside this block."""
     global _current
-    sandboxed = sandbox.current_network() is not None
-    _current = Judging(assignment_id, set(judged_checks(assignment_id, sandboxed)))
+    _current = Judging(assignment_id, set(judged_checks(assignment_id)))
     try:
         yield _current
     finally:
@@ -121,11 +123,13 @@ class JudgedExecute(CappedExecute):  # type: ignore[misc]
     ) -> tuple[NotebookNode, dict[str, Any]]:
         grade_id = cell.get("metadata", {}).get("nbgrader", {}).get("grade_id")
         if _current is not None and is_test_cell(cell) and grade_id in _current.checks:
-            folder = getattr(self.km, "sandbox_folder", None) or resources.get("metadata", {}).get(
-                "path", "."
+            # A sandbox's folder is seen through /proc/<pid>/root: never resolved (that
+            # link would lead to the host's own root).
+            folder = getattr(self.km, "sandbox_folder", None) or str(
+                Path(resources.get("metadata", {}).get("path", ".")).resolve()
             )
             _current.verdicts[grade_id] = _current.verdict(
-                grade_id, self.km.connection_file, str(Path(folder).resolve())
+                grade_id, self.km.connection_file, folder, getattr(self.km, "sandbox_pid", None)
             )
         return super().preprocess_cell(cell, resources, index)  # type: ignore[no-any-return]
 

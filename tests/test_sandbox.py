@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import os
 import shutil
+import signal
 import subprocess
 import sys
 import tempfile
@@ -160,6 +161,48 @@ def test_everything_in_the_sandbox_dies_with_it(tmp_path, private) -> None:
         while marked(token) and time.monotonic() < deadline:
             time.sleep(0.05)
         assert marked(token) == []
+
+
+ENTERED = """
+import os, pathlib, signal, sys, time
+print(os.getuid(), os.getpid() < 100, pathlib.Path('written').read_text(), flush=True)
+print(sorted(k for k in os.environ if 'SECRET' in k), flush=True)
+signal.signal(signal.SIGINT, lambda *_: sys.exit(3))
+print('waiting', flush=True)
+time.sleep(600)
+"""
+
+
+def test_a_trusted_process_runs_a_program_inside_a_running_sandbox(tmp_path, private) -> None:
+    """``enter_argv``: the student's program runs as the student, in the sandbox's
+    folders and PIDs, without the grader's environment; Ctrl-C reaches it and its exit
+    code comes back."""
+    seed = tmp_path / "lab"
+    seed.mkdir()
+    stay = "import pathlib, time\npathlib.Path('written').write_text('by the kernel')\n"
+    stay += "print('ready', flush=True)\ntime.sleep(600)\n"
+    with sandbox.Network() as net:
+        launch = sandbox.prepare(
+            [sys.executable, "-c", stay], network=net, private=private, env=ros_env(), seed=seed
+        )
+        kernel, pid = sandbox.start(launch, stdout=subprocess.PIPE)
+        try:
+            assert kernel.stdout is not None and kernel.stdout.readline() == b"ready\n"
+            program = subprocess.Popen(
+                sandbox.enter_argv(pid, f"{sandbox.HOME}/lab", [sys.executable, "-c", ENTERED]),
+                env={**ros_env(), "GRADER_SECRET": "hidden"},
+                stdout=subprocess.PIPE,
+                stderr=subprocess.STDOUT,
+                text=True,
+            )
+            assert program.stdout is not None
+            lines = [program.stdout.readline() for _ in range(3)]
+            assert lines == [f"{sandbox.UID} True by the kernel\n", "[]\n", "waiting\n"], lines
+            program.send_signal(signal.SIGINT)
+            assert program.wait(timeout=120) == 3
+        finally:
+            kernel.kill()
+            kernel.wait()
 
 
 def marked(token: str) -> list[int]:

@@ -42,7 +42,7 @@ ATTACKS = {
     ),
     # Before every cell, the checks are replaced again.
     "pre_run_cell_hook": (
-        "def _hook(info):\n    import rosbook.labs.probes as _m\n"
+        "def _hook(info):\n    import rosbook.labs.lab01 as _m\n"
         + "\n".join("    " + ln for ln in NEUTER.strip().splitlines())
         + "\nget_ipython().events.register('pre_run_cell', _hook)"
     ),
@@ -59,17 +59,17 @@ ATTACKS = {
         "ip.run_cell = lambda raw_cell, *a, **k: _run(_skip(raw_cell), *a, **k)\n"
         "ip.run_cell_async = lambda raw_cell, *a, **k: _run_async(_skip(raw_cell), *a, **k)"
     ),
-    "importlib": "import importlib\n_m = importlib.import_module('rosbook.labs.probes')" + NEUTER,
-    "alias": "import rosbook.labs.probes as _m" + NEUTER,
-    "sys_modules": "import sys\n_m = sys.modules['rosbook.labs.probes']" + NEUTER,
+    "importlib": "import importlib\n_m = importlib.import_module('rosbook.labs.lab01')" + NEUTER,
+    "alias": "import rosbook.labs.lab01 as _m" + NEUTER,
+    "sys_modules": "import sys\n_m = sys.modules['rosbook.labs.lab01']" + NEUTER,
     "gc": (
         "import gc\n_m = next(o for o in gc.get_objects()\n"
-        "          if type(o).__name__ == 'module' and o.__name__ == 'rosbook.labs.probes')"
+        "          if type(o).__name__ == 'module' and o.__name__ == 'rosbook.labs.lab01')"
         + NEUTER
     ),
     "exec_base64": (
         "import base64\nexec(base64.b64decode("
-        + repr(base64.b64encode(("import rosbook.labs.probes as _m" + NEUTER).encode()).decode())
+        + repr(base64.b64encode(("import rosbook.labs.lab01 as _m" + NEUTER).encode()).decode())
         + "))"
     ),
     # `checks` is looked up in the builtins once the notebook's own name is gone.
@@ -171,22 +171,7 @@ def test_a_kernel_left_busy_keeps_the_points_earned_before_it(graded) -> None:
     assert "interrupted: doubler" in feedback(out, "spin_stuck_in_cell", LAB)
 
 
-#: Known gap (issue 12 stays open): with sandboxed kernels the judge does not run the
-#: student's talker.py itself (it would run outside the sandbox), so that check is judged
-#: in the kernel and these attacks can claim its 3 points or escape the flag.
-SCRIPT_GAP = pytest.mark.xfail(
-    reason="talker.py is judged in the sandboxed kernel, not by the judge", strict=False
-)
-
-
-def _gap(names: list[str], gapped: set[str]) -> list[object]:
-    return [pytest.param(n, marks=SCRIPT_GAP) if n in gapped else n for n in names]
-
-
-@pytest.mark.parametrize(
-    "attack",
-    _gap([*ATTACKS, SHIPPED], {"input_transformer", "post_run_cell_hook", "run_cell_replaced"}),
-)
+@pytest.mark.parametrize("attack", [*ATTACKS, SHIPPED])
 def test_an_attack_in_the_kernel_earns_no_point_its_code_did_not(graded, attack: str) -> None:
     rows, out = graded
     r = rows[attack]
@@ -198,22 +183,19 @@ def test_an_attack_in_the_kernel_earns_no_point_its_code_did_not(graded, attack:
 
 @pytest.mark.parametrize(
     "attack",
-    _gap(
-        [
-            "input_transformer",
-            "pre_run_cell_hook",
-            "post_run_cell_hook",
-            "run_cell_replaced",
-            "importlib",
-            "alias",
-            "sys_modules",
-            "gc",
-            "exec_base64",
-            "builtins_override",
-            SHIPPED,
-        ],
-        {"pre_run_cell_hook", "importlib", "alias", "sys_modules", "gc", "exec_base64"},
-    ),
+    [
+        "input_transformer",
+        "pre_run_cell_hook",
+        "post_run_cell_hook",
+        "run_cell_replaced",
+        "importlib",
+        "alias",
+        "sys_modules",
+        "gc",
+        "exec_base64",
+        "builtins_override",
+        SHIPPED,
+    ],
 )
 def test_a_pass_claimed_in_the_kernel_but_not_judged_is_flagged_by_cell(graded, attack) -> None:
     rows, out = graded
