@@ -64,8 +64,7 @@ ATTACKS = {
     "sys_modules": "import sys\n_m = sys.modules['rosbook.labs.lab01']" + NEUTER,
     "gc": (
         "import gc\n_m = next(o for o in gc.get_objects()\n"
-        "          if type(o).__name__ == 'module' and o.__name__ == 'rosbook.labs.lab01')"
-        + NEUTER
+        "          if type(o).__name__ == 'module' and o.__name__ == 'rosbook.labs.lab01')" + NEUTER
     ),
     "exec_base64": (
         "import base64\nexec(base64.b64decode("
