@@ -77,6 +77,8 @@ def pip_install(args: list[str], env: dict[str, str]) -> None:
 
 
 class Layout(NamedTuple):
+    """The wheels installed in one layout: ``user site`` or ``dist-packages``."""
+
     name: str
     #: The environment that runs the system's Python there, the project on PYTHONPATH.
     env: dict[str, str]
@@ -92,8 +94,16 @@ def layout(request: pytest.FixtureRequest, tmp_path_factory: pytest.TempPathFact
         pytest.skip(f"{SYSTEM_PYTHON} is missing or not Python 3.10-3.13 (the wheels' range)")
     python = f"python{version[0]}.{version[1]}"
     home = tmp_path_factory.mktemp("home")
-    # pip refuses to install into a system Python (PEP 668) unless told to.
-    pip_env = outside_env(HOME=str(home), PIP_BREAK_SYSTEM_PACKAGES="1")
+    # pip's settings and proxies kept; pip refuses to install into a system Python
+    # (PEP 668) unless told to.
+    pip_env = {
+        **{
+            k: v
+            for k, v in os.environ.items()
+            if k.startswith("PIP_") or k.lower().endswith("_proxy")
+        },
+        **outside_env(HOME=str(home), PIP_BREAK_SYSTEM_PACKAGES="1"),
+    }
     if request.param == "user site":
         user_base = home / ".local"
         pip_install(["--user"], {**pip_env, "PYTHONUSERBASE": str(user_base)})
