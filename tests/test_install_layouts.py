@@ -19,7 +19,9 @@ makes it a copy of ~240 MB): the tests are slow ones.
 from __future__ import annotations
 
 import os
+import shutil
 import subprocess
+from collections.abc import Iterator
 from pathlib import Path
 from typing import NamedTuple
 
@@ -87,16 +89,21 @@ class Layout(NamedTuple):
 
 
 @pytest.fixture(scope="module", params=["user site", "dist-packages"])
-def layout(request: pytest.FixtureRequest, tmp_path_factory: pytest.TempPathFactory) -> Layout:
-    """The wheels installed by the system's Python in one layout."""
+def layout(
+    request: pytest.FixtureRequest, tmp_path_factory: pytest.TempPathFactory
+) -> Iterator[Layout]:
+    """The wheels installed by the system's Python in one layout (~240 MB, removed after)."""
     version = system_python_version()
     if version is None or not (3, 10) <= version <= (3, 13):
         pytest.skip(f"{SYSTEM_PYTHON} is missing or not Python 3.10-3.13 (the wheels' range)")
     python = f"python{version[0]}.{version[1]}"
-    home = tmp_path_factory.mktemp("home")
-    # pip's settings and proxies kept; pip refuses to install into a system Python
-    # (PEP 668) unless told to.
+    folder = tmp_path_factory.mktemp("layout")
+    home = folder / "home"
+    # pip's settings, proxies and cache (not the throwaway HOME's) kept; pip refuses to
+    # install into a system Python (PEP 668) unless told to.
+    cache = Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache")) / "pip"
     pip_env = {
+        "PIP_CACHE_DIR": str(cache),
         **{
             k: v
             for k, v in os.environ.items()
@@ -108,8 +115,10 @@ def layout(request: pytest.FixtureRequest, tmp_path_factory: pytest.TempPathFact
         user_base = home / ".local"
         pip_install(["--user"], {**pip_env, "PYTHONUSERBASE": str(user_base)})
         env = outside_env(HOME=str(home), PYTHONUSERBASE=str(user_base), PYTHONPATH=str(ROOT))
-        return Layout(request.param, env, user_base / "lib" / python / "site-packages")
-    root = tmp_path_factory.mktemp("root")
+        yield Layout(request.param, env, user_base / "lib" / python / "site-packages")
+        shutil.rmtree(folder)
+        return
+    root = folder / "root"
     pip_install(["--root", str(root)], pip_env)
     local = root / "usr" / "local" / "lib"
     assert (local / python / "dist-packages").is_dir() and (local / "librcl.so").exists()
@@ -119,7 +128,8 @@ def layout(request: pytest.FixtureRequest, tmp_path_factory: pytest.TempPathFact
         PYTHONNOUSERSITE="1",
         PYTHONPATH=f"{ROOT}:{local / python / 'dist-packages'}",
     )
-    return Layout(request.param, env, local / python / "site-packages")
+    yield Layout(request.param, env, local / python / "site-packages")
+    shutil.rmtree(folder)
 
 
 def python_error(env: dict[str, str], code: str) -> str:
