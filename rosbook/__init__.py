@@ -28,7 +28,11 @@ from collections.abc import Callable
 from types import ModuleType
 from typing import Any
 
-from rosbook.runtime.session import Session, SimClock, ros
+from rosbook.runtime import wheels
+
+wheels.preload()  # before rclpy loads: the ROS wheels' libraries outside a venv too
+
+from rosbook.runtime.session import Session, SimClock, ros  # noqa: E402
 
 __all__ = ["Session", "SimClock", "ros"]
 
