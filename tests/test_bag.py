@@ -1,0 +1,245 @@
+"""``ros2 bag record / info / play``: real rosbag2 folders that other tools open.
+
+The recorder and the player run as processes of their own (``python -m rosbook.cli``);
+the publishing and subscribing nodes live in this process, in a context of their own.
+Bags are read back with readers that share no code with the writer: the ``mcap``
+library (Foxglove's) and sqlite3 itself; a bag written by ``rosbags`` directly (not
+through this project) is played into a live subscriber.
+"""
+
+from __future__ import annotations
+
+import signal
+import sqlite3
+import subprocess
+import sys
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import pytest
+import yaml
+from geometry_msgs.msg import Twist
+from mcap.reader import make_reader
+from rclpy.context import Context
+from rclpy.duration import Duration
+from rclpy.node import Node
+from rclpy.serialization import deserialize_message
+from rosbags.rosbag2 import StoragePlugin, Writer
+from rosbags.typesys import Stores, get_typestore
+from std_msgs.msg import String
+
+from rosbook.runtime import graph
+
+#: Guards against a hang only (a subprocess CLI on a loaded machine starts slowly).
+TIMEOUT_S = 60.0
+WORDS = [f"hello {k}" for k in range(5)]
+TWISTS = [(0.1 * k, -0.5 * k) for k in range(1, 4)]
+
+
+def ros2(*argv: str, **kwargs: Any) -> subprocess.Popen[str]:
+    return subprocess.Popen(
+        [sys.executable, "-m", "rosbook.cli", *argv],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        **kwargs,
+    )
+
+
+def finish(process: subprocess.Popen[str]) -> tuple[str, str]:
+    try:
+        out, err = process.communicate(timeout=TIMEOUT_S)
+    except subprocess.TimeoutExpired:
+        process.kill()
+        out, err = process.communicate()
+        pytest.fail(f"timeout: {process.args} did not end in {TIMEOUT_S} s:\n{err}")
+    assert process.returncode == 0 and "Traceback" not in err, err
+    return out, err
+
+
+@pytest.fixture
+def node() -> Iterator[Node]:
+    context = Context()
+    context.init()
+    node = Node("bag_test", context=context, start_parameter_services=False)
+    yield node
+    node.destroy_node()
+    context.try_shutdown()
+
+
+@pytest.fixture(scope="module")
+def recorded(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
+    """One live run recorded at once into an MCAP bag and a sqlite3 bag by ``ros2 bag
+    record``: five Strings on /chatter and three Twists on /cmd_vel, then Ctrl-C."""
+    tmp = tmp_path_factory.mktemp("bags")
+    context = Context()
+    context.init()
+    node = Node("bag_talker", context=context, start_parameter_services=False)
+    chatter = node.create_publisher(String, "chatter", 10)
+    cmd_vel = node.create_publisher(Twist, "cmd_vel", 10)
+    paths = {storage: tmp / storage for storage in ("mcap", "sqlite3")}
+    recorders = {
+        storage: ros2("bag", "record", "-o", str(path), "-s", storage, "/chatter", "cmd_vel")
+        for storage, path in paths.items()
+    }
+    try:
+        # both recorders' subscriptions matched both publishers: then nothing is missed
+        both = len(recorders)
+        assert graph.wait_for(
+            lambda _: (
+                min(chatter.get_subscription_count(), cmd_vel.get_subscription_count()) >= both
+            ),
+            node,
+            timeout=TIMEOUT_S,
+        ), "timeout: the recorders' subscriptions never matched the publishers"
+        for word in WORDS:
+            chatter.publish(String(data=word))
+            assert chatter.wait_for_all_acked(Duration(seconds=TIMEOUT_S)), "timeout: acks"
+        for v, w in TWISTS:
+            msg = Twist()
+            msg.linear.x, msg.angular.z = v, w
+            cmd_vel.publish(msg)
+            assert cmd_vel.wait_for_all_acked(Duration(seconds=TIMEOUT_S)), "timeout: acks"
+        for process in recorders.values():
+            process.send_signal(signal.SIGINT)
+        logs = {storage: "".join(finish(process)) for storage, process in recorders.items()}
+    finally:
+        for process in recorders.values():
+            if process.poll() is None:
+                process.kill()
+                process.wait()
+        node.destroy_node()
+        context.try_shutdown()
+    for log in logs.values():  # ROS logs go to stdout in isolated runs, else to stderr
+        assert "[rosbag2_recorder]: Recording..." in log, log
+        assert "Subscribed to topic '/chatter'" in log and "Subscribed to topic '/cmd_vel'" in log
+        assert "Recording stopped" in log, log
+    return paths
+
+
+def check_contents(rows: list[tuple[str, str, bytes]]) -> None:
+    """(topic, type, CDR bytes) in time order: what the talker published, in order."""
+    types = {"/chatter": String, "/cmd_vel": Twist}
+    got: dict[str, list[Any]] = {"/chatter": [], "/cmd_vel": []}
+    for topic, type_name, data in rows:
+        assert type_name == f"{types[topic].__module__.split('.')[0]}/msg/{types[topic].__name__}"
+        got[topic].append(deserialize_message(data, types[topic]))
+    assert [m.data for m in got["/chatter"]] == WORDS
+    assert [(m.linear.x, m.angular.z) for m in got["/cmd_vel"]] == TWISTS
+
+
+def test_record_writes_an_mcap_bag_that_the_mcap_library_reads(recorded) -> None:
+    bag = recorded["mcap"]
+    meta = yaml.safe_load((bag / "metadata.yaml").read_text())["rosbag2_bagfile_information"]
+    assert meta["storage_identifier"] == "mcap" and meta["message_count"] == 8
+    [file] = meta["relative_file_paths"]
+    assert file.endswith(".mcap")
+    rows = []
+    with open(bag / file, "rb") as stream:
+        for schema, channel, message in make_reader(stream).iter_messages(log_time_order=True):
+            assert schema.encoding == "ros2msg" and channel.message_encoding == "cdr"
+            rows.append((channel.topic, schema.name, message.data))
+            if channel.topic == "/cmd_vel":  # the definition names the nested type
+                assert "geometry_msgs/Vector3" in schema.data.decode(), schema.data
+    check_contents(rows)
+
+
+def test_record_writes_a_sqlite3_bag_that_sqlite_reads(recorded) -> None:
+    bag = recorded["sqlite3"]
+    meta = yaml.safe_load((bag / "metadata.yaml").read_text())["rosbag2_bagfile_information"]
+    assert meta["storage_identifier"] == "sqlite3"
+    [file] = meta["relative_file_paths"]
+    with sqlite3.connect(bag / file) as db:
+        rows = db.execute(
+            "SELECT topics.name, topics.type, messages.data FROM messages "
+            "JOIN topics ON messages.topic_id = topics.id ORDER BY messages.timestamp"
+        ).fetchall()
+        formats = {f for (f,) in db.execute("SELECT serialization_format FROM topics")}
+    assert formats == {"cdr"}
+    check_contents(rows)
+
+
+def test_bag_info_prints_upstreams_layout(recorded) -> None:
+    out, _ = finish(ros2("bag", "info", str(recorded["mcap"])))
+    lines = out.splitlines()
+    assert lines[0] == "" and lines[1].startswith("Files:             ")
+    assert lines[1].endswith(".mcap")
+    assert "Storage id:        mcap" in lines
+    assert "Messages:          8" in lines
+    for prefix in ("Bag size:          ", "Duration:          ", "Start:             "):
+        assert any(line.startswith(prefix) for line in lines), (prefix, out)
+    topics = [line.strip() for line in lines if "Topic: " in line]
+    assert topics == [
+        "Topic information: Topic: /chatter | Type: std_msgs/msg/String | Count: 5 | "
+        "Serialization Format: cdr",
+        "Topic: /cmd_vel | Type: geometry_msgs/msg/Twist | Count: 3 | Serialization Format: cdr",
+    ] or topics == [
+        "Topic information: Topic: /cmd_vel | Type: geometry_msgs/msg/Twist | Count: 3 | "
+        "Serialization Format: cdr",
+        "Topic: /chatter | Type: std_msgs/msg/String | Count: 5 | Serialization Format: cdr",
+    ], out
+
+
+def test_bag_info_of_a_folder_without_a_bag_is_one_line_and_exit_1(tmp_path) -> None:
+    process = ros2("bag", "info", str(tmp_path))
+    out, err = process.communicate(timeout=TIMEOUT_S)
+    assert process.returncode == 1 and "Traceback" not in err
+    assert "no metadata.yaml" in err and len(err.strip().splitlines()) == 1
+
+
+def test_record_refuses_an_existing_output_folder(tmp_path) -> None:
+    process = ros2("bag", "record", "-o", str(tmp_path), "/chatter")
+    _, err = process.communicate(timeout=TIMEOUT_S)
+    assert process.returncode == 1 and f"Output folder '{tmp_path}' already exists." in err
+
+
+@pytest.fixture(scope="module")
+def foreign_bag(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A bag written with rosbags' own writer and serializer (no rosbook code): six
+    Strings on /chatter, 0.4 s apart."""
+    path = tmp_path_factory.mktemp("foreign") / "bag"
+    store = get_typestore(Stores.ROS2_JAZZY)
+    message = store.types["std_msgs/msg/String"]
+    with Writer(path, version=9, storage_plugin=StoragePlugin.MCAP) as writer:
+        connection = writer.add_connection("/chatter", "std_msgs/msg/String", typestore=store)
+        for k in range(6):
+            data = store.serialize_cdr(message(data=f"played {k}"), "std_msgs/msg/String")
+            writer.write(connection, 1_700_000_000_000_000_000 + k * 400_000_000, data)
+    return path
+
+
+def test_play_publishes_a_foreign_bag_in_order_at_its_timing(foreign_bag, node) -> None:
+    received: list[tuple[str, int]] = []
+    node.create_subscription(
+        String,
+        "chatter",
+        lambda msg, info: received.append((msg.data, info["source_timestamp"])),
+        10,
+    )
+    rate = 4.0
+    player = ros2("bag", "play", str(foreign_bag), "-r", str(rate))
+    try:
+        done = graph.wait_for(lambda _: len(received) >= 6, node, timeout=TIMEOUT_S)
+    finally:
+        finish(player)
+    assert done, f"timeout: received {received}"
+    assert [data for data, _ in received] == [f"played {k}" for k in range(6)]
+    # published no earlier than the recorded gaps (0.4 s) divided by the rate
+    sent = [stamp for _, stamp in received]
+    for k in range(1, 6):
+        assert sent[k] - sent[0] >= k * 0.4e9 / rate - 1e6, (k, sent)
+
+
+def test_play_loop_starts_over_until_ctrl_c(foreign_bag, node) -> None:
+    received: list[str] = []
+    node.create_subscription(String, "chatter", lambda msg: received.append(msg.data), 10)
+    player = ros2("bag", "play", str(foreign_bag), "-r", "20", "--loop")
+    try:
+        done = graph.wait_for(lambda _: len(received) >= 8, node, timeout=TIMEOUT_S)
+    finally:
+        player.send_signal(signal.SIGINT)
+        finish(player)
+    assert done, f"timeout: received {received}"
+    once = [f"played {k}" for k in range(6)]
+    assert received[:8] == once + once[:2]
