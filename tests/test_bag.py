@@ -21,6 +21,7 @@ import pytest
 import yaml
 from geometry_msgs.msg import Twist
 from mcap.reader import make_reader
+from nav_msgs.msg import Odometry
 from rclpy.context import Context
 from rclpy.duration import Duration
 from rclpy.node import Node
@@ -29,7 +30,8 @@ from rosbags.rosbag2 import StoragePlugin, Writer
 from rosbags.typesys import Stores, get_typestore
 from std_msgs.msg import String
 
-from rosbook.runtime import graph
+from rosbook.runtime import bags, graph
+from rosbook.viz import twin
 
 #: Guards against a hang only (a subprocess CLI on a loaded machine starts slowly).
 TIMEOUT_S = 60.0
@@ -188,10 +190,14 @@ def test_bag_info_of_a_folder_without_a_bag_is_one_line_and_exit_1(tmp_path) -> 
     assert "no metadata.yaml" in err and len(err.strip().splitlines()) == 1
 
 
-def test_record_refuses_an_existing_output_folder(tmp_path) -> None:
+def test_record_refuses_an_existing_output_folder_and_no_topics(tmp_path) -> None:
     process = ros2("bag", "record", "-o", str(tmp_path), "/chatter")
     _, err = process.communicate(timeout=TIMEOUT_S)
     assert process.returncode == 1 and f"Output folder '{tmp_path}' already exists." in err
+    process = ros2("bag", "record", "-o", str(tmp_path / "new"))
+    _, err = process.communicate(timeout=TIMEOUT_S)
+    assert process.returncode == 1 and "Need to specify at least one option out of --all" in err
+    assert not (tmp_path / "new").exists()
 
 
 @pytest.fixture(scope="module")
@@ -243,3 +249,27 @@ def test_play_loop_starts_over_until_ctrl_c(foreign_bag, node) -> None:
     assert done, f"timeout: received {received}"
     once = [f"played {k}" for k in range(6)]
     assert received[:8] == once + once[:2]
+
+
+def test_python_api_writes_messages_and_the_twin_replays_their_odometry(tmp_path) -> None:
+    """``BagWriter`` takes message objects (serialized by rclpy), ``read_messages``
+    gives them back in time order, and ``twin.odometry_frames`` turns a bag's odom into
+    twin frames that end at its last pose (the box centre 0.2 m behind the axle)."""
+    path = tmp_path / "drive"
+    with bags.BagWriter(path, "sqlite3") as bag:
+        bag.add_topic("/odom", "nav_msgs/msg/Odometry")
+        for k in range(51):  # 1 s at 50 Hz, driving straight along x at 0.2 m/s
+            msg = Odometry()
+            msg.header.stamp.sec, msg.header.stamp.nanosec = divmod(k * 20_000_000, 10**9)
+            msg.pose.pose.position.x = 0.2 * k * 0.02
+            msg.pose.pose.orientation.w = 1.0
+            msg.twist.twist.linear.x = 0.2
+            bag.write("/odom", msg, 5_000_000_000 - k)  # stored out of order on purpose
+    assert bags.info(path).topics == [bags.TopicCount("/odom", "nav_msgs/msg/Odometry", 51)]
+    messages = [m.message() for m in bags.read_messages(path)]
+    assert [m.pose.pose.position.x for m in messages][:2] == [0.2 * 50 * 0.02, 0.2 * 49 * 0.02]
+    frames = twin.odometry_frames(reversed(messages), fps=10)
+    assert [round(f.t, 6) for f in frames] == [k / 10 for k in range(11)]
+    assert frames[-1].x == pytest.approx(0.2 - 0.2) and frames[-1].yaw == 0.0
+    # both wheels rolled 0.2 m: 0.2 / r = 5 rad
+    assert frames[-1].left_wheel == pytest.approx(5.0) == frames[-1].right_wheel
