@@ -97,12 +97,13 @@ def recorded(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
         ), "timeout: the recorders' subscriptions never matched the publishers"
         for word in WORDS:
             chatter.publish(String(data=word))
-            assert chatter.wait_for_all_acked(Duration(seconds=TIMEOUT_S)), "timeout: acks"
         for v, w in TWISTS:
             msg = Twist()
             msg.linear.x, msg.angular.z = v, w
             cmd_vel.publish(msg)
-            assert cmd_vel.wait_for_all_acked(Duration(seconds=TIMEOUT_S)), "timeout: acks"
+        # reliable: every message reached both recorders (their queues hold 100)
+        for publisher in (chatter, cmd_vel):
+            assert publisher.wait_for_all_acked(Duration(seconds=TIMEOUT_S)), "timeout: acks"
         for process in recorders.values():
             process.send_signal(signal.SIGINT)
         logs = {storage: "".join(finish(process)) for storage, process in recorders.items()}
