@@ -29,6 +29,7 @@ from rclpy.serialization import deserialize_message
 from rosbags.rosbag2 import StoragePlugin, Writer
 from rosbags.typesys import Stores, get_typestore
 from std_msgs.msg import String
+from test_msgs.msg import Arrays
 
 from rosbook.runtime import bags, graph
 from rosbook.viz import twin
@@ -71,27 +72,28 @@ def node() -> Iterator[Node]:
 
 
 @pytest.fixture(scope="module")
-def recorded(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
+def recorded(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Any]:
     """One live run recorded at once into an MCAP bag and a sqlite3 bag by ``ros2 bag
-    record``: five Strings on /chatter and three Twists on /cmd_vel, then Ctrl-C."""
+    record``: five Strings on /chatter, three Twists on /cmd_vel and one
+    test_msgs/Arrays on /arrays, then Ctrl-C (SIGTERM for the sqlite3 one)."""
     tmp = tmp_path_factory.mktemp("bags")
     context = Context()
     context.init()
     node = Node("bag_talker", context=context, start_parameter_services=False)
     chatter = node.create_publisher(String, "chatter", 10)
     cmd_vel = node.create_publisher(Twist, "cmd_vel", 10)
+    arrays = node.create_publisher(Arrays, "arrays", 10)  # a type outside rosbags' store
     paths = {storage: tmp / storage for storage in ("mcap", "sqlite3")}
+    topics = ["/chatter", "cmd_vel", "/arrays"]
     recorders = {
-        storage: ros2("bag", "record", "-o", str(path), "-s", storage, "/chatter", "cmd_vel")
+        storage: ros2("bag", "record", "-o", str(path), "-s", storage, *topics)
         for storage, path in paths.items()
     }
     try:
         # both recorders' subscriptions matched both publishers: then nothing is missed
         both = len(recorders)
         assert graph.wait_for(
-            lambda _: (
-                min(chatter.get_subscription_count(), cmd_vel.get_subscription_count()) >= both
-            ),
+            lambda _: min(p.get_subscription_count() for p in (chatter, cmd_vel, arrays)) >= both,
             node,
             timeout=TIMEOUT_S,
         ), "timeout: the recorders' subscriptions never matched the publishers"
@@ -101,11 +103,13 @@ def recorded(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
             msg = Twist()
             msg.linear.x, msg.angular.z = v, w
             cmd_vel.publish(msg)
+        arrays.publish(Arrays(string_values=["a", "b", "c"]))
         # reliable: every message reached both recorders (their queues hold 100)
-        for publisher in (chatter, cmd_vel):
+        for publisher in (chatter, cmd_vel, arrays):
             assert publisher.wait_for_all_acked(Duration(seconds=TIMEOUT_S)), "timeout: acks"
-        for process in recorders.values():
-            process.send_signal(signal.SIGINT)
+        [endpoint] = node.get_publishers_info_by_topic("/arrays")
+        recorders["mcap"].send_signal(signal.SIGINT)  # Ctrl-C
+        recorders["sqlite3"].send_signal(signal.SIGTERM)  # a launcher's or a shell's kill
         logs = {storage: "".join(finish(process)) for storage, process in recorders.items()}
     finally:
         for process in recorders.values():
@@ -118,14 +122,18 @@ def recorded(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
         assert "[rosbag2_recorder]: Recording..." in log, log
         assert "Subscribed to topic '/chatter'" in log and "Subscribed to topic '/cmd_vel'" in log
         assert "Recording stopped" in log, log
-    return paths
+    return {**paths, "arrays_hash": str(endpoint.topic_type_hash)}
 
 
 def check_contents(rows: list[tuple[str, str, bytes]]) -> None:
     """(topic, type, CDR bytes) in time order: what the talker published, in order."""
     types = {"/chatter": String, "/cmd_vel": Twist}
     got: dict[str, list[Any]] = {"/chatter": [], "/cmd_vel": []}
+    arrays = [deserialize_message(data, Arrays) for topic, _, data in rows if topic == "/arrays"]
+    assert [list(m.string_values) for m in arrays] == [["a", "b", "c"]]
     for topic, type_name, data in rows:
+        if topic == "/arrays":
+            continue
         assert type_name == f"{types[topic].__module__.split('.')[0]}/msg/{types[topic].__name__}"
         got[topic].append(deserialize_message(data, types[topic]))
     assert [m.data for m in got["/chatter"]] == WORDS
@@ -135,7 +143,13 @@ def check_contents(rows: list[tuple[str, str, bytes]]) -> None:
 def test_record_writes_an_mcap_bag_that_the_mcap_library_reads(recorded) -> None:
     bag = recorded["mcap"]
     meta = yaml.safe_load((bag / "metadata.yaml").read_text())["rosbag2_bagfile_information"]
-    assert meta["storage_identifier"] == "mcap" and meta["message_count"] == 8
+    assert meta["storage_identifier"] == "mcap" and meta["message_count"] == 9
+    # the type hash the graph reported, not one computed by rosbags
+    hashes = {
+        t["topic_metadata"]["name"]: t["topic_metadata"]["type_description_hash"]
+        for t in meta["topics_with_message_count"]
+    }
+    assert hashes["/arrays"] == recorded["arrays_hash"] and hashes["/arrays"].startswith("RIHS01_")
     [file] = meta["relative_file_paths"]
     assert file.endswith(".mcap")
     rows = []
@@ -169,19 +183,18 @@ def test_bag_info_prints_upstreams_layout(recorded) -> None:
     assert lines[0] == "" and lines[1].startswith("Files:             ")
     assert lines[1].endswith(".mcap")
     assert "Storage id:        mcap" in lines
-    assert "Messages:          8" in lines
+    assert "Messages:          9" in lines
     for prefix in ("Bag size:          ", "Duration:          ", "Start:             "):
         assert any(line.startswith(prefix) for line in lines), (prefix, out)
-    topics = [line.strip() for line in lines if "Topic: " in line]
-    assert topics == [
-        "Topic information: Topic: /chatter | Type: std_msgs/msg/String | Count: 5 | "
-        "Serialization Format: cdr",
-        "Topic: /cmd_vel | Type: geometry_msgs/msg/Twist | Count: 3 | Serialization Format: cdr",
-    ] or topics == [
-        "Topic information: Topic: /cmd_vel | Type: geometry_msgs/msg/Twist | Count: 3 | "
-        "Serialization Format: cdr",
+    first = lines.index(next(line for line in lines if line.startswith("Topic information: ")))
+    topics = [lines[first].removeprefix("Topic information: ")]
+    topics += [line.removeprefix(" " * 19) for line in lines[first + 1 : first + 3]]
+    assert sorted(topics) == [
+        "Topic: /arrays | Type: test_msgs/msg/Arrays | Count: 1 | Serialization Format: cdr",
         "Topic: /chatter | Type: std_msgs/msg/String | Count: 5 | Serialization Format: cdr",
+        "Topic: /cmd_vel | Type: geometry_msgs/msg/Twist | Count: 3 | Serialization Format: cdr",
     ], out
+    assert lines[first + 3 :] == ["Service:           0", "Service information: "], out
 
 
 def test_bag_info_of_a_folder_without_a_bag_is_one_line_and_exit_1(tmp_path) -> None:

@@ -5,7 +5,10 @@ from __future__ import annotations
 
 import argparse
 import functools
-from collections.abc import Callable
+import signal
+import threading
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 
 from rclpy.duration import Duration
 from rclpy.executors import SingleThreadedExecutor, TimeoutException
@@ -17,6 +20,8 @@ from rosbook.runtime import bags, graph
 
 #: How often ``record`` looks for new topics on the graph (upstream's polling interval).
 POLL_S = 0.1
+#: What ends a recording cleanly (the bag closed, its metadata written).
+STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM)
 
 
 def add_parser(verbs: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
@@ -85,7 +90,7 @@ def record(args: argparse.Namespace) -> int:
         )
     path = args.output or bags.default_path()
     log = get_logger("rosbag2_recorder")
-    with cli_node() as node:
+    with _stopped_by_signals() as stop, cli_node() as node:
         recorder = bags.Recorder(
             node,
             path,
@@ -99,21 +104,32 @@ def record(args: argparse.Namespace) -> int:
             log.info("Listening for topics...")
             recorder.discover()
             log.info("Recording...")
-            while True:
+            while not stop.is_set():
                 executor.spin_once(timeout_sec=POLL_S)
                 recorder.discover()
-        except KeyboardInterrupt:
-            pass
-        finally:
-            # what arrived before Ctrl-C is still queued: store it, then close the bag
+            # what arrived before Ctrl-C is still queued: store it
             for _ in range(bags.RECORD_DEPTH * len(recorder.topics)):
                 if not _run_ready(executor):
                     break
+        finally:
             executor.remove_node(node)
             executor.shutdown(timeout_sec=0)
-            recorder.close()
+            recorder.close()  # writes metadata.yaml
             log.info("Recording stopped")
     return 0
+
+
+@contextmanager
+def _stopped_by_signals() -> Iterator[threading.Event]:
+    """An event that Ctrl-C (SIGINT) or SIGTERM sets, instead of interrupting whatever
+    runs (a message half written to the bag)."""
+    stop = threading.Event()
+    previous = {sig: signal.signal(sig, lambda *_: stop.set()) for sig in STOP_SIGNALS}
+    try:
+        yield stop
+    finally:
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)
 
 
 def _run_ready(executor: SingleThreadedExecutor) -> bool:

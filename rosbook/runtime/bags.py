@@ -139,14 +139,23 @@ class BagWriter:
         self._connections: dict[str, Connection] = {}
         self.counts: dict[str, int] = {}
 
-    def add_topic(self, topic: str, type_name: str, qos: Sequence[QoSProfile] = ()) -> None:
+    def add_topic(
+        self,
+        topic: str,
+        type_name: str,
+        qos: Sequence[QoSProfile] = (),
+        type_hash: str | None = None,
+    ) -> None:
         """Declare ``topic`` of ``type_name`` (e.g. ``std_msgs/msg/String``), with the
-        QoS its publishers offer."""
+        QoS its publishers offer and its type hash (``RIHS01_...``) as the graph reports
+        it (default: computed from the definition)."""
         store = typestore([type_name])
+        msgdef, _ = store.generate_msgdef(type_name, ros_version=2)
         self._connections[topic] = self._writer.add_connection(
             topic,
             type_name,
-            typestore=store,
+            msgdef=msgdef,
+            rihs01=type_hash or store.hash_rihs01(type_name),
             serialization_format="cdr",
             offered_qos_profiles=[bag_qos(q) for q in qos],
         )
@@ -225,7 +234,13 @@ class Recorder:
 
     def _subscribe(self, topic: str, type_name: str, publishers: list[TopicEndpointInfo]) -> None:
         msg_type = message_class(type_name)
-        self.bag.add_topic(topic, type_name, [p.qos_profile for p in publishers])
+        type_hash = str(publishers[0].topic_type_hash)
+        self.bag.add_topic(
+            topic,
+            type_name,
+            [p.qos_profile for p in publishers],
+            type_hash if type_hash.startswith("RIHS01_") else None,
+        )
         qos = graph.qos_for_publishers(publishers, depth=RECORD_DEPTH)
 
         def store(data: bytes) -> None:
