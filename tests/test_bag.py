@@ -25,6 +25,7 @@ from nav_msgs.msg import Odometry
 from rclpy.context import Context
 from rclpy.duration import Duration
 from rclpy.node import Node
+from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.serialization import deserialize_message
 from rosbags.rosbag2 import StoragePlugin, Writer
 from rosbags.typesys import Stores, get_typestore
@@ -149,6 +150,9 @@ def test_record_writes_an_mcap_bag_that_the_mcap_library_reads(recorded) -> None
         t["topic_metadata"]["name"]: t["topic_metadata"]["type_description_hash"]
         for t in meta["topics_with_message_count"]
     }
+    # each topic's publishers' QoS, as the graph reported them
+    [offered] = meta["topics_with_message_count"][0]["topic_metadata"]["offered_qos_profiles"]
+    assert (offered["reliability"], offered["durability"]) == ("reliable", "volatile")
     assert hashes["/arrays"] == recorded["arrays_hash"] and hashes["/arrays"].startswith("RIHS01_")
     [file] = meta["relative_file_paths"]
     assert file.endswith(".mcap")
@@ -287,3 +291,22 @@ def test_python_api_writes_messages_and_the_twin_replays_their_odometry(tmp_path
     assert frames[-1].x == pytest.approx(0.2 - 0.2) and frames[-1].yaw == 0.0
     # both wheels rolled 0.2 m: 0.2 / r = 5 rad
     assert frames[-1].left_wheel == pytest.approx(5.0) == frames[-1].right_wheel
+
+
+def test_playback_offers_the_qos_every_recorded_publisher_offered() -> None:
+    reliable = bags.bag_qos(QoSProfile(depth=10))
+    latched = bags.bag_qos(QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL))
+    lossy = bags.bag_qos(QoSProfile(depth=5, reliability=ReliabilityPolicy.BEST_EFFORT))
+    assert latched.depth == 1 and lossy.reliability.name == "BEST_EFFORT"
+    qos = bags.playback_qos([latched])
+    assert (qos.reliability, qos.durability) == (
+        ReliabilityPolicy.RELIABLE,
+        DurabilityPolicy.TRANSIENT_LOCAL,
+    )
+    assert bags.playback_qos([latched, reliable]).durability == DurabilityPolicy.VOLATILE
+    assert bags.playback_qos([reliable, lossy]).reliability == ReliabilityPolicy.BEST_EFFORT
+    qos = bags.playback_qos([])
+    assert (qos.reliability, qos.durability) == (
+        ReliabilityPolicy.RELIABLE,
+        DurabilityPolicy.VOLATILE,
+    )

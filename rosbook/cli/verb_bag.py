@@ -30,7 +30,14 @@ def add_parser(verbs: argparse._SubParsersAction) -> None:  # type: ignore[type-
 
     p = commands.add_parser("record", help="Record topics into a bag until Ctrl-C")
     p.add_argument("topics", nargs="*", metavar="Topic", help="topics to record")
-    p.add_argument("--topics", dest="topics_option", nargs="+", default=[], metavar="Topic")
+    p.add_argument(
+        "--topics",
+        dest="topics_option",
+        nargs="+",
+        default=[],
+        metavar="Topic",
+        help="topics to record",
+    )
     p.add_argument(
         "-a", "--all", action="store_true", help="record all topics (except hidden ones)"
     )

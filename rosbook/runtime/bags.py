@@ -111,10 +111,12 @@ def bag_qos(profile: QoSProfile) -> Qos:
 
 
 def playback_qos(offered: Sequence[Qos], depth: int = 10) -> QoSProfile:
-    """The QoS a player offers: reliable and transient-local only if every recorded
-    publisher was (so late-joining subscribers of a latched topic still get it)."""
+    """The QoS a player offers, adapted to the recorded publishers' as upstream's
+    player does: reliable and transient-local only if every one of them was (so a
+    late subscriber of a latched topic still gets it); reliable, volatile if none
+    was recorded."""
     qos = QoSProfile(depth=depth)
-    if offered and all(q.reliability == QosReliability.BEST_EFFORT for q in offered):
+    if any(q.reliability == QosReliability.BEST_EFFORT for q in offered):
         qos.reliability = ReliabilityPolicy.BEST_EFFORT
     if offered and all(q.durability == QosDurability.TRANSIENT_LOCAL for q in offered):
         qos.durability = DurabilityPolicy.TRANSIENT_LOCAL
