@@ -14,6 +14,7 @@ import signal
 import sqlite3
 import subprocess
 import sys
+import threading
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -364,3 +365,42 @@ def test_play_publishes_upstreams_bag_byte_for_byte(node) -> None:
     assert len(expected) == 7 and len(received) == 7
     for topic in ("/test_topic", "/array_topic"):  # DDS orders messages within a topic
         assert [d for t, d in received if t == topic] == [d for t, d in expected if t == topic]
+
+
+def test_record_leaves_out_a_topic_whose_type_is_not_installed(tmp_path, node) -> None:
+    """As upstream: one warning, and the other topics are recorded. The recorder runs
+    where test_msgs cannot be imported (a package this process has and it has not)."""
+    chatter = node.create_publisher(String, "chatter", 10)
+    node.create_publisher(Arrays, "arrays", 10)
+    without_test_msgs = (
+        "import sys; sys.modules['test_msgs'] = None; from rosbook.cli import main; "
+        "sys.argv[0] = 'ros2'; sys.exit(main())"
+    )
+    recorder = subprocess.Popen(
+        [sys.executable, "-c", without_test_msgs, "bag", "record", "-o", str(tmp_path / "b"),
+         "/chatter", "/arrays"],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+        text=True,
+    )  # fmt: skip
+    lines: list[str] = []
+    reader = threading.Thread(target=lambda: lines.extend(recorder.stdout or []), daemon=True)
+    reader.start()
+    warning = "Topic '/arrays' has unknown type 'test_msgs/msg/Arrays' . Only topics with known"
+    try:
+        ready = graph.wait_for(
+            lambda _: chatter.get_subscription_count() >= 1 and any(warning in x for x in lines),
+            node,
+            timeout=TIMEOUT_S,
+        )
+        chatter.publish(String(data="still recorded"))
+        assert chatter.wait_for_all_acked(Duration(seconds=TIMEOUT_S)), "timeout: acks"
+    finally:
+        recorder.send_signal(signal.SIGINT)
+        recorder.wait(timeout=TIMEOUT_S)
+        reader.join(timeout=TIMEOUT_S)
+    assert ready, f"timeout: {''.join(lines)}"
+    assert recorder.returncode == 0, "".join(lines)
+    assert sum(warning in x for x in lines) == 1, lines
+    info = bags.info(tmp_path / "b")
+    assert info.topics == [bags.TopicCount("/chatter", "std_msgs/msg/String", 1)]

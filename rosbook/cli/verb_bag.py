@@ -104,6 +104,7 @@ def record(args: argparse.Namespace) -> int:
             None if args.all else topics,
             args.storage,
             on_subscribed=lambda t: log.info(f"Subscribed to topic '{t}'"),
+            on_unknown_type=log.warning,
         )
         executor = SingleThreadedExecutor(context=node.context)
         executor.add_node(node)

@@ -48,7 +48,7 @@ from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 from rosbags.typesys.store import Typestore
 
 from rosbook.runtime import graph
-from rosbook.runtime.interfaces import definition, fields, message_class
+from rosbook.runtime.interfaces import InterfaceError, definition, fields, message_class
 
 #: ``ros2 bag record -s``: the storage plugins, Jazzy's default first.
 STORAGES = {"mcap": StoragePlugin.MCAP, "sqlite3": StoragePlugin.SQLITE3}
@@ -191,7 +191,9 @@ class Recorder:
     there); call :meth:`discover` again to pick up topics that appear later (the CLI
     does, every 100 ms, like upstream's topic polling). Each message is stored as the
     CDR bytes that arrived, stamped with ``node``'s clock at reception (simulated time
-    on a node with ``use_sim_time``). ``on_subscribed(topic)`` is told of each new topic.
+    on a node with ``use_sim_time``). ``on_subscribed(topic)`` is told of each new topic;
+    a topic whose type is not installed here is left out, and ``on_unknown_type(text)``
+    told once per type, in upstream's words.
     """
 
     def __init__(
@@ -201,12 +203,15 @@ class Recorder:
         topics: Sequence[str] | None = None,
         storage: str = DEFAULT_STORAGE,
         on_subscribed: Callable[[str], None] | None = None,
+        on_unknown_type: Callable[[str], None] | None = None,
     ) -> None:
         self.node = node
         self.wanted = None if topics is None else {graph.absolute_name(t) for t in topics}
         self.bag = BagWriter(path, storage)
         self.on_subscribed = on_subscribed
+        self.on_unknown_type = on_unknown_type
         self._subscriptions: dict[str, Subscription] = {}
+        self._unknown: dict[str, str] = {}  # topic: its type, left out
 
     @property
     def topics(self) -> list[str]:
@@ -221,7 +226,7 @@ class Recorder:
         """Subscribe to the wanted topics that now have a publisher; the new ones."""
         new = []
         for name, types in self.node.get_topic_names_and_types():
-            if name in self._subscriptions or not types:
+            if name in self._subscriptions or name in self._unknown or not types:
                 continue
             if self.wanted is None and graph.is_hidden(name):
                 continue
@@ -230,9 +235,21 @@ class Recorder:
             publishers = self.node.get_publishers_info_by_topic(name)
             if not publishers:
                 continue
-            self._subscribe(name, types[0], publishers)
+            try:
+                self._subscribe(name, types[0], publishers)
+            except InterfaceError as error:
+                self._left_out(name, types[0], error)
+                continue
             new.append(name)
         return new
+
+    def _left_out(self, topic: str, type_name: str, error: InterfaceError) -> None:
+        if type_name not in self._unknown.values() and self.on_unknown_type is not None:
+            self.on_unknown_type(
+                f"Topic '{topic}' has unknown type '{type_name}' . Only topics with known "
+                f"type are supported. Reason: '{error}"
+            )
+        self._unknown[topic] = type_name
 
     def _subscribe(self, topic: str, type_name: str, publishers: list[TopicEndpointInfo]) -> None:
         msg_type = message_class(type_name)
