@@ -218,10 +218,6 @@ class Recorder:
         """The topics subscribed so far."""
         return sorted(self._subscriptions)
 
-    @property
-    def counts(self) -> dict[str, int]:
-        return dict(self.bag.counts)
-
     def discover(self) -> list[str]:
         """Subscribe to the wanted topics that now have a publisher; the new ones."""
         new = []
