@@ -1,4 +1,4 @@
-"""The built driving chapter: the recorded 3D twin of a drive is embedded in the page."""
+"""The built driving chapter: the recorded 3D twins of a drive are embedded in the page."""
 
 from __future__ import annotations
 
@@ -19,21 +19,21 @@ def page(built_book: Path) -> str:
     return (built_book / f"{CHAPTER}.html").read_text()
 
 
-def test_the_page_embeds_an_animated_twin_with_the_robots_links(page: str) -> None:
+def test_the_page_embeds_animated_twins_with_the_robots_links(page: str) -> None:
     scenes = bookpages.scene_commands(page)
-    assert len(scenes) == 1, "one recorded twin: the go-to-goal drive"
-    (commands,) = scenes
+    assert len(scenes) == 2, "two recorded twins: the go-to-goal drive, and its bag replayed"
     bot = robots.diff_drive()
-    paths = {c.get("path") for c in commands}
-    missing = [link for link in bot.links if f"/meshcat/{bot.name}/{link}" not in paths]
-    assert not missing, missing
-    (animation,) = [c for c in commands if c["type"] == "set_animation"]
-    animated = {a["path"] for a in animation["animations"]}
-    assert {"/meshcat/bot", "/meshcat/bot/left_wheel", "/meshcat/bot/right_wheel"} <= animated
-    assert any(p and p.startswith("/meshcat/world/box") for p in paths), "the obstacle"
-    # the drive ends at the goal (2.0, 1.2), within the controller's 2 cm
-    end = twin.axle_pose(twin.final_poses(commands, bot.name))
-    assert abs(end.x - 2.0) < 0.02 and abs(end.y - 1.2) < 0.02, end
+    for commands in scenes:
+        paths = {c.get("path") for c in commands}
+        missing = [link for link in bot.links if f"/meshcat/{bot.name}/{link}" not in paths]
+        assert not missing, missing
+        (animation,) = [c for c in commands if c["type"] == "set_animation"]
+        animated = {a["path"] for a in animation["animations"]}
+        assert {"/meshcat/bot", "/meshcat/bot/left_wheel", "/meshcat/bot/right_wheel"} <= animated
+        assert any(p and p.startswith("/meshcat/world/box") for p in paths), "the obstacle"
+        # the drive ends at the goal (2.0, 1.2), within the controller's 2 cm
+        end = twin.axle_pose(twin.final_poses(commands, bot.name))
+        assert abs(end.x - 2.0) < 0.02 and abs(end.y - 1.2) < 0.02, end
 
 
 def test_the_twin_is_light_and_uses_the_shared_viewer(built_book: Path, page: str) -> None:

@@ -26,11 +26,13 @@ import meshcat
 import meshcat.geometry as g
 import numpy as np
 from meshcat.animation import Animation
+from nav_msgs.msg import Odometry
 
 from rosbook import robots
 from rosbook.robots.urdf import Robot
-from rosbook.sim.node import Simulation
-from rosbook.sim.physics import DiffDriveSim, Pose, TwinFrame, World
+from rosbook.sim.diff_drive import wheel_speeds
+from rosbook.sim.node import Simulation, yaw_of
+from rosbook.sim.physics import DiffDriveSim, Pose, RobotGeometry, TwinFrame, World
 from rosbook.viz.scene import Bounds, RobotView, Scene, planar_pose, points_bounds
 
 #: Frames per simulated second of a recorded twin: smooth enough, small enough for a page.
@@ -203,6 +205,45 @@ def record(
     twin = Twin(world=world if world is not None else physics.world, camera=camera)
     twin.record(frames, fps=fps, repetitions=repetitions)
     return twin.scene(height=height)
+
+
+def odometry_frames(
+    odometry: Iterable[Odometry],
+    fps: float = DEFAULT_FPS,
+    geometry: RobotGeometry | None = None,
+) -> list[TwinFrame]:
+    """Twin frames from ``odom`` messages (a bag's, played back or read), ``fps`` per
+    second of their stamps.
+
+    Each frame's pose is a message's (moved from the axle's middle to the box centre);
+    the wheel angles, which ``Odometry`` does not carry, are integrated from each
+    message's twist through the kinematics. The last message always gives the last
+    frame, so the twin ends where the recording ended.
+    """
+    geometry = geometry or RobotGeometry()
+    r, sep, off = geometry.wheel_radius, geometry.wheel_separation, geometry.axle_offset
+    frames: list[TwinFrame] = []
+    left = right = 0.0
+    last_t: float | None = None
+    pending: TwinFrame | None = None
+    for msg in odometry:
+        t = msg.header.stamp.sec + msg.header.stamp.nanosec * 1e-9
+        if last_t is not None:
+            w_left, w_right = wheel_speeds(
+                msg.twist.twist.linear.x, msg.twist.twist.angular.z, r, sep
+            )
+            left, right = left + w_left * (t - last_t), right + w_right * (t - last_t)
+        last_t = t
+        p, yaw = msg.pose.pose.position, yaw_of(msg)
+        pending = TwinFrame(
+            t, p.x - off * math.cos(yaw), p.y - off * math.sin(yaw), yaw, left, right
+        )
+        if not frames or t >= frames[0].t + len(frames) / fps - 1e-9:
+            frames.append(pending)
+            pending = None
+    if pending is not None:
+        frames.append(pending)
+    return frames
 
 
 # -- reading a recorded twin back (for the book's and the tests' checks) ----------------
