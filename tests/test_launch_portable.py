@@ -14,6 +14,7 @@ import shutil
 import signal
 import subprocess
 import sys
+import threading
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -78,9 +79,10 @@ def launched(env: dict[str, str]) -> Iterator[list[subprocess.Popen[str]]]:
 
 
 def ros2_launch(env: dict[str, str], *argv: str) -> subprocess.CompletedProcess[str]:
-    """``ros2 launch ARGV`` for a command that ends by itself (``-s``, errors)."""
+    """``ros2 launch ARGV`` for a command that ends by itself (``-s``, errors), as typed
+    in a terminal: the sourced workspace's ``launch/`` folders are on ``sys.path``."""
     return subprocess.run(
-        [sys.executable, "-m", "rosbook.cli", "launch", *argv],
+        ["ros2", "launch", *argv],
         env=env,
         capture_output=True,
         text=True,
@@ -89,21 +91,33 @@ def ros2_launch(env: dict[str, str], *argv: str) -> subprocess.CompletedProcess[
 
 
 def stop(proc: subprocess.Popen[str], lines: list[str]) -> str:
-    """One Ctrl-C; everything it printed; every process it started stopped cleanly."""
+    """One Ctrl-C; everything it printed (read on from ``lines``, through the same buffer);
+    every process it started stopped cleanly. It is SIGKILLed if that takes 30 s."""
+    assert proc.stdout is not None
     os.killpg(proc.pid, signal.SIGINT)
-    out, _ = proc.communicate(timeout=30)
-    text = "".join(lines) + out
-    assert proc.returncode == 0, text
+    watchdog = threading.Timer(30.0, os.killpg, (proc.pid, signal.SIGKILL))
+    watchdog.start()
+    text = "".join(lines) + proc.stdout.read()
+    watchdog.cancel()
+    proc.wait()
+    assert proc.returncode == 0, f"timeout: {text}" if proc.returncode == -9 else text
     return text
 
 
-def wait_for_nodes(session: Session, probe: Probe, names: set[tuple[str, str]]) -> None:
+def wait_until_spinning(session: Session, names: set[tuple[str, str]], *probes: Probe) -> Probe:
+    """Wait until the nodes ``names`` are on the graph and each probe heard a message (a
+    node that published spins: a Ctrl-C then stops it cleanly, not mid-import)."""
+    observer = probes[0].node
+
     def seen() -> bool:
-        return names <= set(probe.node.get_node_names_and_namespaces())
+        graph = set(observer.get_node_names_and_namespaces())
+        return names <= graph and all(p.received.messages for p in probes)
 
     assert session.spin_until(seen, timeout=60.0), (
-        f"timeout: {names} not all on the graph: {probe.node.get_node_names_and_namespaces()}"
+        f"timeout: {names} not all on the graph or silent: "
+        f"{observer.get_node_names_and_namespaces()}"
     )
+    return probes[0]
 
 
 def test_show_args_prints_the_arguments_as_upstream(env: dict[str, str]) -> None:
@@ -140,9 +154,13 @@ def test_arguments_namespaces_conditions_and_parameter_files_reach_the_graph(
     # path mode, as upstream: the arguments follow the file
     proc = start_launch(env, str(source), "rate:=5.0", "robot:=robot2", "with_listener:=false")
     launched.append(proc)
-    lines = read_until(proc, "Publishing", [])
-    probe = Probe("/robot2/chatter", String)
-    wait_for_nodes(session, probe, {("talker", "/robot2"), ("config_talker", "/")})
+    lines = read_until(proc, "process started", [])
+    probe = wait_until_spinning(
+        session,
+        {("talker", "/robot2"), ("config_talker", "/")},
+        Probe("/robot2/chatter", String),
+        Probe("/chatter", String),
+    )
     assert get_parameter(probe.node, "/robot2/talker", "rate", timeout=30.0) == 5.0
     assert get_parameter(probe.node, "/config_talker", "rate", timeout=30.0) == 8.0  # yaml
     text = stop(proc, lines)
@@ -158,8 +176,7 @@ def test_an_include_passes_its_launch_arguments_and_a_timer_runs_a_conditioned_p
     launched.append(proc)
     # 2 s on, the condition (new_rate == 4.0 and use_provided_rate) holds: the process runs
     lines = read_until(proc, "rate of talker2/talker: 4.0", [])
-    probe = Probe("/talker2/chatter", String)
-    wait_for_nodes(session, probe, {("talker", "/talker2")})
+    wait_until_spinning(session, {("talker", "/talker2")}, Probe("/talker2/chatter", String))
     text = stop(proc, lines)
     assert "[echo-2] rate of talker2/talker: 4.0" in text, text
     assert "[INFO] [echo-2]: process has finished cleanly" in text, text
@@ -171,8 +188,7 @@ def test_a_package_launch_file_of_the_integrating_tutorial_runs(
     proc = start_launch(env, "launch_tutorial", "my_script_launch.py")
     launched.append(proc)
     lines = read_until(proc, "process started", [])
-    probe = Probe("/chatter", String)
-    wait_for_nodes(session, probe, {("talker", "/")})
+    wait_until_spinning(session, {("talker", "/")}, Probe("/chatter", String))
     text = stop(proc, lines)
     pid = int(text.split("process started with pid [")[1].split("]")[0])
     assert not alive(pid)
@@ -197,6 +213,13 @@ def test_a_required_argument_a_bad_choice_and_a_malformed_argument_are_named(
     done = ros2_launch(env, str(arguments), "robot=robot2")
     assert done.returncode == 1
     assert "malformed launch argument 'robot=robot2', expected format '<name>:=<value>'" in (
+        done.stderr
+    )
+    broken = tmp_path / "broken.launch.py"
+    broken.write_text("def generate_launch_description():\n    raise ValueError('no robot')\n")
+    done = ros2_launch(env, str(broken))
+    assert done.returncode == 1
+    assert "[ERROR] [launch]: Caught exception in launch (see debug for traceback): no robot" in (
         done.stderr
     )
 
@@ -233,3 +256,52 @@ def test_groups_scope_namespaces_parameters_and_configurations(env: dict[str, st
     assert commands["__node:=t1"][-4:] == ["-r", "__ns:=/fleet/a", "-p", "rate:=7.0"]
     assert commands["__node:=t2"][-4:] == ["-r", "__ns:=/abs", "-p", "rate:=7.0"]
     assert commands["__node:=t4"][-2:] == ["-r", "__ns:=/fleet/b"]  # no rate: scoped
+
+
+def test_process_events_timers_and_shutdown_run_their_actions(env: dict[str, str]) -> None:
+    from launch import LaunchDescription
+    from launch.actions import ExecuteProcess, LogInfo, RegisterEventHandler, Shutdown, TimerAction
+    from launch.event_handlers import OnProcessExit, OnProcessStart
+    from launch.substitutions import EnvironmentVariable, ThisLaunchFileDir
+
+    first = ExecuteProcess(
+        cmd=["echo", ["hello ", EnvironmentVariable("USER_NAME")]], output="screen"
+    )
+    later = ExecuteProcess(cmd=[["echo", " from the timer"]], shell=True, output="screen")
+    sleeper = ExecuteProcess(cmd=["sleep", "600"], name="sleeper")
+    description = LaunchDescription(
+        [
+            RegisterEventHandler(
+                OnProcessStart(
+                    target_action=first, on_start=lambda event, _: LogInfo(msg=event.name)
+                )
+            ),
+            RegisterEventHandler(
+                OnProcessExit(
+                    target_action=first,
+                    on_exit=[LogInfo(msg="first exited"), TimerAction(period=0.5, actions=[later])],
+                )
+            ),
+            RegisterEventHandler(
+                OnProcessExit(target_action=later, on_exit=[Shutdown(reason="all done")])
+            ),
+            first,
+            sleeper,
+        ]
+    )
+    system = Launch(description, env={**env, "USER_NAME": "ada"}, echo=None).start()
+    assert system.wait(timeout=60.0), f"timeout: {system.output}"  # Shutdown stops the sleeper
+    out = [line.split(" [pid")[0] for line in system.output]
+    assert "[echo-1] hello ada" in out and "[echo-3] from the timer" in out
+    order = [
+        "[INFO] [launch.user]: echo-1",
+        "[INFO] [launch.user]: first exited",
+        "[INFO] [echo-3]: process started with pid",
+        "[INFO] [launch]: shutting down: all done",
+    ]
+    assert [line for line in out if any(line.startswith(o) for o in order)] == [
+        next(line for line in out if line.startswith(o)) for o in order
+    ]
+    assert system.process("sleeper-2").returncode == -signal.SIGINT
+    with pytest.raises(LaunchError, match="ThisLaunchFileDir used outside of a launch file"):
+        Launch(LaunchDescription([LogInfo(msg=ThisLaunchFileDir())]), env=env)

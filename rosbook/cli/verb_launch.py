@@ -99,6 +99,12 @@ def main(args: argparse.Namespace) -> int:
     except (LaunchError, LookupError) as error:
         print(f"[ERROR] [launch]: {error}", file=sys.stderr)
         return 1
+    except Exception as error:  # the launch file's own error, worded as upstream reports it
+        print(
+            f"[ERROR] [launch]: Caught exception in launch (see debug for traceback): {error}",
+            file=sys.stderr,
+        )
+        return 1
     signal.signal(signal.SIGTERM, _interrupt)  # `kill` stops the nodes too, like Ctrl-C
     return system.start().spin()
 

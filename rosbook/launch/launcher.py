@@ -40,11 +40,13 @@ from __future__ import annotations
 
 import atexit
 import ctypes
+import importlib.util
 import json
 import os
 import queue
 import signal
 import subprocess
+import sys
 import threading
 import time
 from collections.abc import Callable, Iterable, Mapping, Sequence
@@ -987,7 +989,7 @@ class Launch:
     def process(self, name: str) -> Process:
         """The process named ``name`` (``talker-1``) or whose node is named ``name``."""
         for process in self.processes:
-            if name in (process.name, process.node.name):
+            if name in (process.name, process.node_name):
                 return process
         raise KeyError(f"no process {name!r}: {[p.name for p in self.processes]}")
 
@@ -1009,11 +1011,39 @@ def launch(
     return Launch(description, env=env, echo=echo, launch_arguments=launch_arguments).start()
 
 
+#: This project's upstream-named front ends, which launch files import.
+FRONT_ENDS = ("launch", "launch_ros")
+
+
+def _front_ends_for_launch_files() -> None:
+    """Make ``import launch`` / ``import launch_ros`` give this project's packages.
+
+    A ROS package's ``launch/`` folder on ``sys.path`` (its ``--symlink-install`` build
+    folder is on ``PYTHONPATH`` once the workspace is sourced) is a namespace package to
+    Python's path finder, which comes before the finder of an editable install: the
+    launch file would get that empty folder. A full install's ``launch`` is a regular
+    package, which wins over such folders; here the editable finder is asked directly.
+    """
+    for name in FRONT_ENDS:
+        loaded = sys.modules.get(name)
+        if loaded is not None and getattr(loaded, "__file__", None):
+            continue
+        for finder in sys.meta_path:
+            find_spec = getattr(finder, "find_spec", None)
+            spec = find_spec(name, None) if find_spec else None
+            if spec is not None and spec.loader is not None and spec.has_location:
+                module = importlib.util.module_from_spec(spec)
+                sys.modules[name] = module
+                spec.loader.exec_module(module)
+                break
+
+
 def load_launch_file(path: str | os.PathLike[str]) -> LaunchDescription:
     """Run a Python launch file and return its ``generate_launch_description()``."""
     source = Path(path)
     if not source.is_file():
         raise LaunchError(f"no launch file '{source}'")
+    _front_ends_for_launch_files()
     namespace: dict[str, Any] = {"__file__": str(source), "__name__": "__launch_file__"}
     exec(compile(source.read_text(), str(source), "exec"), namespace)  # noqa: S102
     generate = namespace.get("generate_launch_description")
