@@ -311,6 +311,7 @@ class Launch:
 def _ro_sources() -> list[str]:
     """Host folders a sandbox sees read-only, at the same path."""
     paths = {"/usr", sys.prefix, sys.base_prefix, str(ROOT / "rosbook")}
+    paths |= {str(ROOT / "launch"), str(ROOT / "launch_ros")}  # lab 6's launch files import them
     # Of the grader only what starts a sandbox: never the judge's hidden check parameters.
     paths |= {str(ROOT / "autograder" / name) for name in ("__init__.py", "sandbox.py")}
     real = Path(sys.executable).resolve()

@@ -68,8 +68,8 @@ def test_ordinary_code_is_not_flagged(source: str) -> None:
 
 
 def test_imports_copied_from_ros_tutorials_are_not_flagged_in_lab6() -> None:
-    """lab 6's locked cells import LaunchDescription and Node from rosbook.launch.launcher; a
-    student who writes the upstream imports of a ROS tutorial is not tampering."""
+    """lab 6's locked cells import LaunchDescription and Node from launch and launch_ros; a
+    student who writes the upstream imports of a ROS tutorial again is not tampering."""
     lab = "lab06_launch_system"
     released = nbformat.read(notebook_path(lab), as_version=4)
     submitted = nbformat.read(notebook_path(lab), as_version=4)

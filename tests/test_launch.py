@@ -28,6 +28,7 @@ from rosbook.launch.launcher import (
     load_launch_file,
     yaml_value,
 )
+from rosbook.launch.substitutions import LaunchContext
 from rosbook.launch.workspace import Workspace, create_package
 from rosbook.runtime.session import Session
 
@@ -93,15 +94,16 @@ def talker(ns: str, rate: float = 5.0, **extra: object) -> Node:
 
 def test_command_line_carries_name_namespace_parameters_and_remaps() -> None:
     node = Node(
-        package="p",
-        executable="e",
+        executable="/x/lib/p/e",
         name="driver",
         namespace="robot1",
         parameters=[{"rate": 2.0, "label": "left", "ids": [1, 2], "pid": {"kp": 1}}],
         remappings=[("chatter", "news")],
         arguments=["--verbose"],
     )
-    assert node.command("/x/lib/p/e", {"use_sim_time": True}) == [
+    context = LaunchContext()
+    context.launch_configurations["global_params"] = [("use_sim_time", True)]
+    assert node.command(context) == [
         "/x/lib/p/e",
         "--verbose",
         "--ros-args",
@@ -110,7 +112,7 @@ def test_command_line_carries_name_namespace_parameters_and_remaps() -> None:
         *("-p", "rate:=2.0", "-p", 'label:="left"', "-p", "ids:=[1, 2]", "-p", "pid.kp:=1"),
         *("-r", "chatter:=news"),
     ]
-    assert Node(package="p", executable="e").command("/e") == ["/e"]
+    assert Node(executable="/e").command() == ["/e"]
     assert yaml_value(False) == "false" and yaml_value(3) == "3"
 
 
@@ -247,7 +249,7 @@ def test_set_parameter_applies_to_every_later_node(env: dict[str, str]) -> None:
         LaunchDescription([talker("a"), SetParameter("use_sim_time", True), talker("b")]),
         env=env,
     )
-    first, second = (cmd for _, cmd in system._plan)
+    first, second = (planned.cmd for planned in system._plan)
     assert "use_sim_time:=true" not in first and "use_sim_time:=true" in second
 
 

@@ -9,7 +9,7 @@ from pathlib import Path
 from autograder.config import ROOT
 
 RUFF = str(Path(sys.executable).parent / "ruff")
-CODE = ["rosbook", "autograder", "tests", "benchmarks"]
+CODE = ["rosbook", "autograder", "launch", "launch_ros", "tests", "benchmarks"]
 
 
 def test_ruff_lint_passes() -> None:

@@ -1,10 +1,12 @@
-"""``ros2 launch PACKAGE FILE`` or ``ros2 launch PATH``: run a launch description.
+"""``ros2 launch PACKAGE FILE [name:=value ...]`` or ``ros2 launch PATH [name:=value ...]``.
 
 The file is a Python launch file whose ``generate_launch_description()`` returns a
-``rosbook.launch.LaunchDescription`` (the real ones import ``launch`` and
-``launch_ros``, which are not installable here). ``PACKAGE FILE`` finds ``FILE`` under
-the package's ``share/<package>/`` folder, where ``setup.py``'s ``data_files`` install
-launch files. Every node runs as its own process; Ctrl-C stops them all.
+``LaunchDescription``, written as for a full install (``from launch import ...``,
+``from launch_ros.actions import Node``: here they are ``rosbook.launch``'s). ``PACKAGE
+FILE`` finds ``FILE`` under the package's ``share/<package>/`` folder, where
+``setup.py``'s ``data_files`` install launch files. ``name:=value`` sets a launch
+argument; ``-s`` / ``--show-args`` lists the file's arguments as upstream prints them.
+Every process runs on its own; Ctrl-C stops them all.
 """
 
 from __future__ import annotations
@@ -15,13 +17,33 @@ import sys
 from pathlib import Path
 
 from rosbook.launch import workspace
-from rosbook.launch.launcher import Launch, LaunchError, load_launch_file
+from rosbook.launch.launcher import (
+    Launch,
+    LaunchError,
+    format_launch_arguments,
+    include,
+    load_launch_file,
+)
 
 
 def add_parser(verbs: argparse._SubParsersAction) -> None:
     parser = verbs.add_parser("launch", help="Run a launch file")
-    parser.add_argument("package_name", help="Name of the ROS package, or a launch file path")
+    parser.add_argument(
+        "-s",
+        "--show-args",
+        "--show-arguments",
+        action="store_true",
+        help="Show arguments that may be given to the launch file.",
+    )
+    parser.add_argument(
+        "package_name", help="Name of the ROS package which contains the launch file"
+    )
     parser.add_argument("launch_file_name", nargs="?", help="Name of the launch file")
+    parser.add_argument(
+        "launch_arguments",
+        nargs="*",
+        help="Arguments to the launch file; '<name>:=<value>' (for duplicates, last one wins)",
+    )
     parser.set_defaults(func=main)
 
 
@@ -32,25 +54,56 @@ def find_launch_file(package: str, name: str) -> Path:
     if not found:
         raise LaunchError(
             f"file '{name}' was not found in the share directory of package '{package}' "
-            f"({share}): is it listed in setup.py's data_files, and was the package rebuilt?"
+            f"which is at '{share}' (is it listed in setup.py's data_files, and was the "
+            "package rebuilt?)"
         )
     if len(found) > 1:
-        raise LaunchError(f"file '{name}' was found more than once in {share}: {found}")
+        listed = ", ".join(f"'{p}'" for p in found)
+        raise LaunchError(
+            f"file '{name}' was found more than once in the share directory of package "
+            f"'{package}': [{listed}]"
+        )
     return found[0]
 
 
+def parse_launch_arguments(arguments: list[str]) -> list[tuple[str, str]]:
+    """``name:=value`` pairs, the last of a name winning (as upstream)."""
+    parsed: dict[str, str] = {}
+    for argument in arguments:
+        count = argument.count(":=")
+        if count == 0 or argument.startswith(":=") or (count == 1 and argument.endswith(":=")):
+            raise LaunchError(
+                f"malformed launch argument '{argument}', expected format '<name>:=<value>'"
+            )
+        name, value = argument.split(":=", 1)
+        parsed[name] = value
+    return list(parsed.items())
+
+
 def main(args: argparse.Namespace) -> int:
+    arguments = list(args.launch_arguments)
     try:
-        if args.launch_file_name is None:
+        if Path(args.package_name).is_file():  # single file mode, as upstream decides it
             path = Path(args.package_name)
-            if not path.is_file():
-                raise LaunchError(f"no launch file '{path}'")
+            if args.launch_file_name is not None:
+                arguments.insert(0, args.launch_file_name)
+        elif args.launch_file_name is None:
+            raise LaunchError(f"no launch file '{args.package_name}'")
         else:
             path = find_launch_file(args.package_name, args.launch_file_name)
-        description = load_launch_file(path)
+        if args.show_args:
+            print(format_launch_arguments(load_launch_file(path)))
+            return 0
+        description = include(path, parse_launch_arguments(arguments))
         system = Launch(description, echo=lambda line: print(line, flush=True))
     except (LaunchError, LookupError) as error:
         print(f"[ERROR] [launch]: {error}", file=sys.stderr)
+        return 1
+    except Exception as error:  # the launch file's own error, worded as upstream reports it
+        print(
+            f"[ERROR] [launch]: Caught exception in launch (see debug for traceback): {error}",
+            file=sys.stderr,
+        )
         return 1
     signal.signal(signal.SIGTERM, _interrupt)  # `kill` stops the nodes too, like Ctrl-C
     return system.start().spin()

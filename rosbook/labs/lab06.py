@@ -427,7 +427,7 @@ def _assert_graph(system: Launch, probe: Probe, nodes: list[str], expected: list
         if "InvalidParameterTypeException" in last:
             hint = " The rate must be a float: {'rate': 5.0}, not {'rate': 5}."
         raise CheckFailed(
-            f"{died[0].name} ({died[0].node.namespace or '/'}) exited right after the "
+            f"{died[0].name} ({died[0].namespace or '/'}) exited right after the "
             f"launch with code {died[0].returncode}.{hint} It printed:\n{last}"
         )
     missing = [n for n in expected if n not in nodes]

@@ -1,8 +1,10 @@
-"""Workspaces and launching: colcon workspaces and packages (``workspace``) and the
-process launcher (``launcher``) that ``ros2 launch`` runs.
+"""Workspaces and launching: colcon workspaces and packages (``workspace``), the process
+launcher (``launcher``) that ``ros2 launch`` runs, and its substitutions and conditions
+(``substitutions``). Launch files reach the launcher under upstream's names, through this
+project's top-level ``launch`` and ``launch_ros`` packages.
 
-``from rosbook.launch import LaunchDescription, Node`` (what launch files write) still
-gives the names of ``rosbook.launch.launcher``, loaded on first use.
+``from rosbook.launch import LaunchDescription, Node`` still gives the names of
+``rosbook.launch.launcher``, loaded on first use.
 """
 
 from rosbook import names_of

@@ -1,40 +1,52 @@
-"""A small launcher for descriptions shaped like a ROS 2 launch file.
+"""A launcher for ROS 2 launch files: the actions of ``launch`` and ``launch_ros``.
 
-There is no ``launch`` / ``launch_ros`` wheel, so this module provides the part of them a
-first launch file uses, under the same names and fields::
+There is no ``launch`` / ``launch_ros`` wheel, so this module implements the part of them
+the book and the official Jazzy launch tutorials use, under upstream's names, arguments
+and semantics; the top-level packages ``launch`` and ``launch_ros`` re-export it, so a
+launch file written for a full install runs here unchanged::
 
-    from rosbook.launch.launcher import LaunchDescription, Node
+    from launch import LaunchDescription
+    from launch.actions import DeclareLaunchArgument
+    from launch.substitutions import LaunchConfiguration
+    from launch_ros.actions import Node
 
     def generate_launch_description():
         return LaunchDescription([
+            DeclareLaunchArgument('rate', default_value='2.0'),
             Node(package='robot_talk', executable='talker', name='talker',
-                 namespace='robot1', parameters=[{'rate': 2.0}],
+                 namespace='robot1', parameters=[{'rate': LaunchConfiguration('rate')}],
                  remappings=[('chatter', 'news')], output='screen'),
         ])
 
-``launch(description)`` starts every node as a process of its own with the
-``--ros-args`` the real ``launch_ros`` passes (``-r __node:=``, ``-r __ns:=``,
-``-p name:=value``, ``-r from:=to``), merges their output with each line prefixed by the
+Actions: ``DeclareLaunchArgument``, ``SetLaunchConfiguration``, ``IncludeLaunchDescription``
+(of ``PythonLaunchDescriptionSource``), ``GroupAction``, ``ExecuteProcess``, ``LogInfo``,
+``TimerAction`` (wall time, as upstream), ``Shutdown``, ``RegisterEventHandler`` with
+``OnProcessStart`` / ``OnProcessExit``; from ``launch_ros``: ``Node``, ``PushRosNamespace``,
+``SetParameter``. Any action takes ``condition=IfCondition(...)`` / ``UnlessCondition``.
+Substitutions and conditions are in ``rosbook.launch.substitutions``.
+
+``launch(description)`` starts every process with the ``--ros-args`` the real
+``launch_ros`` passes (``-r __node:=``, ``-r __ns:=``, ``-p name:=value``,
+``--params-file``, ``-r from:=to``), merges their output with each line prefixed by the
 process name (``[talker-1] ...``), and stops them all with one Ctrl-C: SIGINT to each,
 then SIGTERM, then SIGKILL after ``sigterm_timeout`` / ``sigkill_timeout`` seconds
-(a second Ctrl-C meanwhile is ignored, as in launch; ``timeout -s INT`` sends two at
-once). A node with ``on_exit=Shutdown()`` stops the whole
-system when it exits, as in launch.
+(a second Ctrl-C meanwhile is ignored, as in launch; ``timeout -s INT`` sends two at once).
 
-Not provided: substitutions and launch arguments, event handlers other than
-``on_exit=Shutdown()``, included launch files, groups, composable nodes, respawn,
-XML/YAML launch files and log files under ``~/.ros/log``.
+Not provided: XML/YAML launch files, composable nodes, lifecycle nodes, respawn, event
+handlers other than process start and exit, and log files under ``~/.ros/log``.
 """
 
 from __future__ import annotations
 
 import atexit
 import ctypes
+import importlib.util
 import json
 import os
 import queue
 import signal
 import subprocess
+import sys
 import threading
 import time
 from collections.abc import Callable, Iterable, Mapping, Sequence
@@ -42,11 +54,26 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import IO, Any
 
+import yaml
+
+from rosbook.launch.substitutions import (
+    Condition,
+    LaunchContext,
+    LaunchError,
+    SomeSubstitutionsType,
+    Substitution,
+    SubstitutionFailure,
+    is_substitution,
+    normalize_to_list_of_substitutions,
+    perform_substitutions,
+)
 from rosbook.launch.workspace import executable_path
 from rosbook.runtime.graph import absolute_name
 
 #: prctl(2) option: the signal a process gets when its parent dies (Linux).
 _PR_SET_PDEATHSIG = 1
+
+__all__ = ["LaunchError", "SubstitutionFailure"]  # re-exported: callers catch them from here
 
 
 def _die_with_launcher() -> None:
@@ -58,76 +85,456 @@ def _die_with_launcher() -> None:
     ctypes.CDLL(None, use_errno=True).prctl(_PR_SET_PDEATHSIG, signal.SIGTERM)
 
 
-@dataclass(frozen=True)
-class Shutdown:
-    """Action: shut the whole launch down (used as ``Node(on_exit=Shutdown())``)."""
-
-    reason: str = "shutdown"
+Entity = Any  # an Action or a LaunchDescription
+SomeActionsType = Any  # an entity or a list of them
 
 
-@dataclass(frozen=True)
-class SetParameter:
-    """Action: set a parameter on every node that comes after it in the description."""
-
-    name: str
-    value: Any
+def _entities(value: SomeActionsType) -> list[Entity]:
+    if value is None:
+        return []
+    return list(value) if isinstance(value, (list, tuple)) else [value]
 
 
-@dataclass(kw_only=True)
-class Node:
-    """A ROS node to run as its own process (``launch_ros.actions.Node``'s fields)."""
+class Action:
+    """One step of a launch description; runs when visited if its ``condition`` holds."""
 
-    package: str
-    executable: str
-    name: str | None = None
-    namespace: str | None = None
-    parameters: Sequence[Mapping[str, Any] | str | os.PathLike[str]] = ()
-    remappings: Sequence[tuple[str, str]] = ()
-    arguments: Sequence[str] = ()
-    ros_arguments: Sequence[str] = ()
-    exec_name: str | None = None
-    output: str = "log"
-    on_exit: Shutdown | None = None
-    additional_env: Mapping[str, str] | None = None
-    sigterm_timeout: float = 5.0
-    sigkill_timeout: float = 5.0
+    def __init__(self, *, condition: Condition | None = None) -> None:
+        self.condition = condition
 
-    def command(
-        self, executable: str | os.PathLike[str], global_parameters: Mapping[str, Any] = {}
-    ) -> list[str]:
-        """The command line launch_ros builds for this node."""
-        ros_args: list[str] = []
-        if self.name:
-            ros_args += ["-r", f"__node:={self.name}"]
-        if self.namespace:
-            ros_args += ["-r", f"__ns:={absolute_name(self.namespace)}"]
-        for name, value in global_parameters.items():
-            ros_args += ["-p", f"{name}:={yaml_value(value)}"]
-        for entry in self.parameters:
-            if isinstance(entry, Mapping):
-                for name, value in _flatten(entry).items():
-                    ros_args += ["-p", f"{name}:={yaml_value(value)}"]
-            else:
-                ros_args += ["--params-file", str(entry)]
-        for source, target in self.remappings:
-            ros_args += ["-r", f"{source}:={target}"]
-        ros_args += list(self.ros_arguments)
-        argv = [str(executable), *self.arguments]
-        return [*argv, "--ros-args", *ros_args] if ros_args else argv
+    def visit(self, context: LaunchContext) -> list[Entity] | None:
+        if self.condition is None or self.condition.evaluate(context):
+            return self.execute(context)
+        return None
+
+    def execute(self, context: LaunchContext) -> list[Entity] | None:
+        raise NotImplementedError
+
+    def describe_sub_entities(self) -> list[Entity]:
+        return []
+
+    def describe_conditional_sub_entities(self) -> list[tuple[str, list[Entity]]]:
+        return []
 
 
-@dataclass
 class LaunchDescription:
     """What ``generate_launch_description()`` returns: actions, in order."""
 
-    entities: list[Node | SetParameter] = field(default_factory=list)
+    def __init__(self, initial_entities: Iterable[Entity] | None = None) -> None:
+        self.entities: list[Entity] = list(initial_entities or [])
 
-    def add_action(self, action: Node | SetParameter) -> None:
-        self.entities.append(action)
+    def add_entity(self, entity: Entity) -> None:
+        self.entities.append(entity)
+
+    add_action = add_entity
+
+    def describe_sub_entities(self) -> list[Entity]:
+        return self.entities
+
+    def describe_conditional_sub_entities(self) -> list[tuple[str, list[Entity]]]:
+        return []
+
+    def get_launch_arguments(
+        self, conditional_inclusion: bool = False
+    ) -> list[DeclareLaunchArgument]:
+        """Every ``DeclareLaunchArgument`` in it, in included files too (first one of a name);
+        ``_conditionally_included`` says whether it is only used under a condition."""
+        found: dict[str, DeclareLaunchArgument] = {}
+
+        def walk(entities: Iterable[Entity], conditional: bool) -> None:
+            for entity in entities:
+                if isinstance(entity, DeclareLaunchArgument) and entity.name not in found:
+                    entity._conditionally_included = conditional or entity.condition is not None
+                    found[entity.name] = entity
+                walk(entity.describe_sub_entities(), False)
+                for _, subs in entity.describe_conditional_sub_entities():
+                    walk(subs, True)
+
+        walk(self.entities, conditional_inclusion)
+        return list(found.values())
 
 
-class LaunchError(RuntimeError):
-    """The description cannot be launched (unknown package or executable, bad entity)."""
+def _describe(subs: list[Substitution]) -> str:
+    return " + ".join(s.describe() for s in subs)
+
+
+def format_launch_arguments(description: LaunchDescription) -> str:
+    """What ``ros2 launch --show-args`` prints, as upstream words it."""
+    lines = ["Arguments (pass arguments as '<name>:=<value>'):"]
+    arguments = description.get_launch_arguments()
+    for argument in arguments:
+        star = "*" if argument._conditionally_included else ""
+        lines += ["", f"    '{argument.name}':{star}", f"        {argument.description}"]
+        if argument.default_value is not None:
+            lines.append(f"        (default: {_describe(argument.default_value)})")
+    if not arguments:
+        lines += ["", "  No arguments."]
+    elif any(a._conditionally_included for a in arguments):
+        lines += ["", "* argument(s) which are only used if specific conditions occur"]
+    return "\n".join(lines)
+
+
+# -- launch actions ------------------------------------------------------------------------
+
+
+class DeclareLaunchArgument(Action):
+    """A launch argument (``name:=value`` on the command line), with an optional default."""
+
+    def __init__(
+        self,
+        name: str,
+        *,
+        default_value: SomeSubstitutionsType | None = None,
+        description: str | None = None,
+        choices: Sequence[str] | None = None,
+        **kwargs: Any,
+    ) -> None:
+        super().__init__(**kwargs)
+        self.name = name
+        self.default_value = (
+            None if default_value is None else normalize_to_list_of_substitutions(default_value)
+        )
+        if choices is not None and not choices:
+            raise LaunchError("Provided choices arg is empty. Use None to ignore the choice list.")
+        if choices is not None and isinstance(default_value, str) and default_value not in choices:
+            raise LaunchError(
+                f'Provided default_value "{default_value}" is not in provided choices '
+                f'"{list(choices)}".'
+            )
+        self.choices = None if choices is None else list(choices)
+        if description is None:
+            description = "no description given" if choices is None else f"One of: {self.choices}"
+        elif choices is not None:
+            description += ("" if description.endswith(".") else ".") + (
+                f" Valid choices are: {self.choices}"
+            )
+        self.description = description
+        self._conditionally_included = False
+
+    def execute(self, context: LaunchContext) -> None:
+        configs = context.launch_configurations
+        if self.name not in configs:
+            if self.default_value is None:
+                raise LaunchError(f'Required launch argument "{self.name}" was not provided.')
+            configs[self.name] = perform_substitutions(context, self.default_value)
+        if self.choices is not None and configs[self.name] not in self.choices:
+            raise LaunchError(
+                f'Argument "{self.name}" provided value "{configs[self.name]}" is not valid. '
+                f"Valid options are: {self.choices}"
+            )
+
+
+class SetLaunchConfiguration(Action):
+    def __init__(
+        self, name: SomeSubstitutionsType, value: SomeSubstitutionsType, **kwargs: Any
+    ) -> None:
+        super().__init__(**kwargs)
+        self.name = normalize_to_list_of_substitutions(name)
+        self.value = normalize_to_list_of_substitutions(value)
+
+    def execute(self, context: LaunchContext) -> None:
+        name = perform_substitutions(context, self.name)
+        context.launch_configurations[name] = perform_substitutions(context, self.value)
+
+
+class PythonLaunchDescriptionSource:
+    """A Python launch file (``*.launch.py``) to include."""
+
+    def __init__(self, launch_file_path: SomeSubstitutionsType) -> None:
+        self.location = normalize_to_list_of_substitutions(launch_file_path)
+
+    def path(self, context: LaunchContext) -> Path:
+        return Path(perform_substitutions(context, self.location)).absolute()
+
+    def get_launch_description(self, context: LaunchContext) -> LaunchDescription:
+        return load_launch_file(self.path(context))
+
+    def try_get_launch_description_without_context(self) -> LaunchDescription | None:
+        try:
+            return self.get_launch_description(LaunchContext())
+        except Exception:  # a path that needs the launch's configurations: not described
+            return None
+
+
+#: Upstream picks the source by file extension; only Python launch files exist here.
+AnyLaunchDescriptionSource = PythonLaunchDescriptionSource
+
+
+class IncludeLaunchDescription(Action):
+    """Another launch file's description, its ``launch_arguments`` set as configurations
+    first (not scoped, as upstream: wrap it in a ``GroupAction`` to keep them in)."""
+
+    def __init__(
+        self,
+        launch_description_source: PythonLaunchDescriptionSource | SomeSubstitutionsType,
+        *,
+        launch_arguments: Iterable[tuple[SomeSubstitutionsType, SomeSubstitutionsType]]
+        | None = None,
+        **kwargs: Any,
+    ) -> None:
+        super().__init__(**kwargs)
+        if not isinstance(launch_description_source, PythonLaunchDescriptionSource):
+            launch_description_source = PythonLaunchDescriptionSource(launch_description_source)
+        self.launch_description_source = launch_description_source
+        self.launch_arguments = tuple(launch_arguments or ())
+
+    def describe_sub_entities(self) -> list[Entity]:
+        found = self.launch_description_source.try_get_launch_description_without_context()
+        return [] if found is None else [found]
+
+    def execute(self, context: LaunchContext) -> list[Entity]:
+        source = self.launch_description_source
+        path = source.path(context)
+        description = source.get_launch_description(context)
+        given = [perform_substitutions(context, name) for name, _ in self.launch_arguments]
+        for argument in description.get_launch_arguments():
+            if argument._conditionally_included or argument.default_value is not None:
+                continue
+            if argument.name not in given and argument.name not in context.launch_configurations:
+                raise LaunchError(
+                    f"Included launch description missing required argument '{argument.name}' "
+                    f"(description: '{argument.description}'), given: [{', '.join(given)}]"
+                )
+        for name, value in self.launch_arguments:
+            SetLaunchConfiguration(name, value).execute(context)
+        context.launch.visit([description], context.reading(path))
+        return None
+
+
+class GroupAction(Action):
+    """Actions in a scope of their own: launch configurations, ``PushRosNamespace`` and
+    ``SetParameter`` inside it end with it (``scoped=True``, the default)."""
+
+    def __init__(
+        self,
+        actions: Iterable[Entity],
+        *,
+        scoped: bool = True,
+        forwarding: bool = True,
+        launch_configurations: Mapping[SomeSubstitutionsType, SomeSubstitutionsType] | None = None,
+        **kwargs: Any,
+    ) -> None:
+        super().__init__(**kwargs)
+        self.actions = list(actions)
+        self.scoped = scoped
+        self.forwarding = forwarding
+        self.launch_configurations = dict(launch_configurations or {})
+
+    def describe_sub_entities(self) -> list[Entity]:
+        return self.actions
+
+    def execute(self, context: LaunchContext) -> list[Entity] | None:
+        inner = context.scoped() if self.scoped else context
+        if self.scoped and not self.forwarding:
+            inner.launch_configurations.clear()
+        for name, value in self.launch_configurations.items():
+            SetLaunchConfiguration(name, value).execute(inner)
+        if not self.scoped:
+            return self.actions
+        context.launch.visit(self.actions, inner)
+        return None
+
+
+class LogInfo(Action):
+    """Print ``msg`` as the ``launch.user`` logger."""
+
+    def __init__(self, *, msg: SomeSubstitutionsType, **kwargs: Any) -> None:
+        super().__init__(**kwargs)
+        self.msg = normalize_to_list_of_substitutions(msg)
+
+    def execute(self, context: LaunchContext) -> None:
+        context.launch.say(f"[INFO] [launch.user]: {perform_substitutions(context, self.msg)}")
+
+
+class TimerAction(Action):
+    """Run ``actions`` ``period`` seconds (wall time) after this action is visited."""
+
+    def __init__(
+        self, *, period: float | SomeSubstitutionsType, actions: Iterable[Entity], **kwargs: Any
+    ) -> None:
+        super().__init__(**kwargs)
+        self.period = period
+        self.actions = list(actions)
+
+    def describe_conditional_sub_entities(self) -> list[tuple[str, list[Entity]]]:
+        return [(f"{self.period} seconds pass", self.actions)]
+
+    def execute(self, context: LaunchContext) -> None:
+        period = self.period
+        if not isinstance(period, (int, float)):
+            period = float(perform_substitutions(context, period))
+        context.launch.add_timer(float(period), self.actions, context)
+
+
+class Shutdown(Action):
+    """Shut the whole launch down (as an action, or as ``Node(on_exit=Shutdown())``)."""
+
+    def __init__(self, *, reason: SomeSubstitutionsType = "reason not given", **kwargs: Any):
+        super().__init__(**kwargs)
+        self.reason = normalize_to_list_of_substitutions(reason)
+
+    def execute(self, context: LaunchContext) -> None:
+        context.launch.begin_shutdown(perform_substitutions(context, self.reason))
+
+
+@dataclass
+class ProcessStarted:
+    """Event: a process started (``OnProcessStart``'s callable gets it)."""
+
+    action: ExecuteProcess
+    name: str
+    cmd: list[str]
+    pid: int
+
+
+@dataclass
+class ProcessExited(ProcessStarted):
+    """Event: a process exited."""
+
+    returncode: int = 0
+
+
+class _ProcessEventHandler:
+    event_type: type = ProcessStarted
+
+    def __init__(self, target_action: ExecuteProcess | None, entities: Any) -> None:
+        self.target_action = target_action
+        self.entities = entities
+
+    def matches(self, event: ProcessStarted) -> bool:
+        return type(event) is self.event_type and self.target_action in (None, event.action)
+
+    def handle(self, event: ProcessStarted, context: LaunchContext) -> list[Entity]:
+        if callable(self.entities) and not isinstance(self.entities, Action):
+            return _entities(self.entities(event, context))
+        return _entities(self.entities)
+
+    def describe_conditional_sub_entities(self) -> list[tuple[str, list[Entity]]]:
+        return [] if callable(self.entities) else [("event", _entities(self.entities))]
+
+
+class OnProcessStart(_ProcessEventHandler):
+    def __init__(self, *, target_action: ExecuteProcess | None = None, on_start: Any) -> None:
+        super().__init__(target_action, on_start)
+
+
+class OnProcessExit(_ProcessEventHandler):
+    event_type = ProcessExited
+
+    def __init__(self, *, target_action: ExecuteProcess | None = None, on_exit: Any) -> None:
+        super().__init__(target_action, on_exit)
+
+
+class RegisterEventHandler(Action):
+    """Run actions when a process starts or exits (``OnProcessStart`` / ``OnProcessExit``)."""
+
+    def __init__(self, event_handler: _ProcessEventHandler, **kwargs: Any) -> None:
+        super().__init__(**kwargs)
+        self.event_handler = event_handler
+
+    def describe_conditional_sub_entities(self) -> list[tuple[str, list[Entity]]]:
+        return self.event_handler.describe_conditional_sub_entities()
+
+    def execute(self, context: LaunchContext) -> None:
+        context.launch.handlers.append((self.event_handler, context))
+
+
+class ExecuteProcess(Action):
+    """A process to run: ``cmd`` is a list of arguments, each substitutions."""
+
+    def __init__(
+        self,
+        *,
+        cmd: Iterable[SomeSubstitutionsType],
+        name: SomeSubstitutionsType | None = None,
+        cwd: SomeSubstitutionsType | None = None,
+        env: Mapping[str, str] | None = None,
+        additional_env: Mapping[str, SomeSubstitutionsType] | None = None,
+        shell: bool = False,
+        sigterm_timeout: float = 5.0,
+        sigkill_timeout: float = 5.0,
+        emulate_tty: bool = False,
+        output: str = "log",
+        on_exit: Any = None,
+        **kwargs: Any,
+    ) -> None:
+        super().__init__(**kwargs)
+        self.cmd = [normalize_to_list_of_substitutions(part) for part in cmd]
+        self.process_name = name
+        self.cwd = cwd
+        self.env = env
+        self.additional_env = dict(additional_env or {})
+        self.shell = shell
+        self.sigterm_timeout = float(sigterm_timeout)
+        self.sigkill_timeout = float(sigkill_timeout)
+        self.emulate_tty = emulate_tty  # output is line-buffered here anyway
+        self.output = output
+        self.on_exit = on_exit
+
+    def describe_conditional_sub_entities(self) -> list[tuple[str, list[Entity]]]:
+        exits = [] if self.on_exit is None or callable(self.on_exit) else _entities(self.on_exit)
+        return [("on_exit", exits)] if exits else []
+
+    def label(self, cmd: list[str], context: LaunchContext) -> str:
+        if self.process_name is not None:
+            return perform_substitutions(context, self.process_name)
+        first = cmd[0].split()[0] if self.shell and cmd else cmd[0]
+        return Path(first).name
+
+    def command(self, context: LaunchContext) -> list[str]:
+        return [perform_substitutions(context, part) for part in self.cmd]
+
+    def execute(self, context: LaunchContext) -> None:
+        cmd = self.command(context)
+        env = dict(context.environment if self.env is None else self.env)
+        env.update({k: perform_substitutions(context, v) for k, v in self.additional_env.items()})
+        cwd = None if self.cwd is None else perform_substitutions(context, self.cwd)
+        context.launch.plan(Planned(self, cmd, self.label(cmd, context), env, cwd, context))
+
+
+# -- launch_ros actions ----------------------------------------------------------------------
+
+
+def _prefix_namespace(base: str | None, namespace: str) -> str:
+    if base is None or namespace.startswith("/"):
+        return absolute_name(namespace or "/")
+    return absolute_name(f"{base.rstrip('/')}/{namespace}".rstrip("/") or "/")
+
+
+class PushRosNamespace(Action):
+    """Put the nodes after it (in its scope) in ``namespace`` (relative ones nest)."""
+
+    def __init__(self, namespace: SomeSubstitutionsType, **kwargs: Any) -> None:
+        super().__init__(**kwargs)
+        self.namespace = normalize_to_list_of_substitutions(namespace)
+
+    def execute(self, context: LaunchContext) -> None:
+        pushed = perform_substitutions(context, self.namespace)
+        base = context.launch_configurations.get("ros_namespace")
+        context.launch_configurations["ros_namespace"] = _prefix_namespace(base, pushed)
+
+
+def _parameter_value(context: LaunchContext, value: Any) -> Any:
+    """A literal as is; substitutions performed and read as YAML, as launch_ros does."""
+    if is_substitution(value):
+        parsed = yaml.safe_load(perform_substitutions(context, value))
+        return "" if parsed is None else parsed
+    if isinstance(value, (list, tuple)):
+        return [_parameter_value(context, v) for v in value]
+    return value
+
+
+class SetParameter(Action):
+    """Set a parameter on every node after it in its scope."""
+
+    def __init__(self, name: SomeSubstitutionsType, value: Any, **kwargs: Any) -> None:
+        super().__init__(**kwargs)
+        self.name = name
+        self.value = value
+
+    def execute(self, context: LaunchContext) -> None:
+        name = perform_substitutions(context, self.name)
+        params = context.launch_configurations.setdefault("global_params", [])
+        params.append((name, _parameter_value(context, self.value)))
 
 
 def yaml_value(value: Any) -> str:
@@ -154,14 +561,115 @@ def _flatten(params: Mapping[str, Any], prefix: str = "") -> dict[str, Any]:
     return flat
 
 
+class Node(ExecuteProcess):
+    """A ROS node to run as its own process (``launch_ros.actions.Node``)."""
+
+    def __init__(
+        self,
+        *,
+        executable: SomeSubstitutionsType,
+        package: SomeSubstitutionsType | None = None,
+        name: SomeSubstitutionsType | None = None,
+        namespace: SomeSubstitutionsType | None = None,
+        exec_name: SomeSubstitutionsType | None = None,
+        parameters: Sequence[Mapping[str, Any] | SomeSubstitutionsType | os.PathLike[str]]
+        | None = None,
+        remappings: Sequence[tuple[SomeSubstitutionsType, SomeSubstitutionsType]] | None = None,
+        ros_arguments: Sequence[SomeSubstitutionsType] | None = None,
+        arguments: Sequence[SomeSubstitutionsType] | None = None,
+        **kwargs: Any,
+    ) -> None:
+        super().__init__(cmd=[executable], name=exec_name, **kwargs)
+        self.package = package
+        self.executable = executable
+        self.name = name
+        self.namespace = namespace
+        self.exec_name = exec_name
+        self.parameters = list(parameters or [])
+        self.remappings = list(remappings or [])
+        self.ros_arguments = list(ros_arguments or [])
+        self.arguments = list(arguments or [])
+
+    def node_name(self, context: LaunchContext) -> str | None:
+        return None if self.name is None else perform_substitutions(context, self.name)
+
+    def node_namespace(self, context: LaunchContext) -> str | None:
+        namespace = (
+            None if self.namespace is None else perform_substitutions(context, self.namespace)
+        )
+        base = context.launch_configurations.get("ros_namespace")
+        if base is None:
+            return absolute_name(namespace) if namespace else None
+        return _prefix_namespace(base, namespace or "")
+
+    def command(self, context: LaunchContext | None = None) -> list[str]:
+        """The command line launch_ros builds for this node."""
+        context = context or LaunchContext()
+        perform = lambda value: perform_substitutions(context, value)  # noqa: E731
+        if self.package is None:
+            executable = perform(self.executable)
+        else:
+            package, name = perform(self.package), perform(self.executable)
+            try:
+                executable = str(executable_path(package, name, context.environment))
+            except LookupError as error:
+                raise LaunchError(str(error)) from None
+        ros_args: list[str] = []
+        name = self.node_name(context)
+        if name:
+            ros_args += ["-r", f"__node:={name}"]
+        namespace = self.node_namespace(context)
+        if namespace and namespace != "/":
+            ros_args += ["-r", f"__ns:={namespace}"]
+        for key, value in context.launch_configurations.get("global_params", []):
+            ros_args += ["-p", f"{key}:={yaml_value(value)}"]
+        for entry in self.parameters:
+            if isinstance(entry, Mapping):
+                for key, value in _flatten(entry).items():
+                    ros_args += [
+                        "-p",
+                        f"{perform(key)}:={yaml_value(_parameter_value(context, value))}",
+                    ]
+            else:
+                ros_args += [
+                    "--params-file",
+                    perform(os.fspath(entry) if isinstance(entry, os.PathLike) else entry),
+                ]
+        for source, target in self.remappings:
+            ros_args += ["-r", f"{perform(source)}:={perform(target)}"]
+        ros_args += [perform(a) for a in self.ros_arguments]
+        argv = [executable, *(perform(a) for a in self.arguments)]
+        return [*argv, "--ros-args", *ros_args] if ros_args else argv
+
+    def label(self, cmd: list[str], context: LaunchContext) -> str:
+        if self.exec_name is not None:
+            return perform_substitutions(context, self.exec_name)
+        return Path(cmd[0]).name
+
+
+@dataclass
+class Planned:
+    """A process to start: its action, command line, label, environment and context."""
+
+    action: ExecuteProcess
+    cmd: list[str]
+    label: str
+    env: dict[str, str]
+    cwd: str | None
+    context: LaunchContext
+
+
 @dataclass
 class Process:
-    """One launched node process."""
+    """One launched process."""
 
-    node: Node
+    node: ExecuteProcess
     name: str
     cmd: list[str]
     popen: subprocess.Popen[bytes]
+    context: LaunchContext
+    node_name: str | None = None
+    namespace: str | None = None
     lines: list[str] = field(default_factory=list)
     reported: bool = False
 
@@ -187,12 +695,24 @@ def _stop_all_at_exit() -> None:
         system.shutdown(sigterm_timeout=1.0, sigkill_timeout=1.0)
 
 
+@dataclass
+class _Timer:
+    period: float
+    actions: list[Entity]
+    context: LaunchContext
+    due: float | None = None
+
+
 class Launch:
     """A running launch: its processes and their merged, prefixed output.
 
-    Output is read by background threads into a queue; ``pump`` (and ``wait``,
-    ``shutdown``) take the lines from it in the caller's thread, record them in
-    ``output`` and pass them to ``echo``, so a notebook cell shows them where it runs.
+    The description is visited when the launch is made (launch arguments, substitutions,
+    conditions and includes are worked out, and every command line checked, before
+    anything starts); ``start`` starts the processes; timers and event handlers visit
+    their actions later, while ``pump`` runs. Output is read by background threads into
+    a queue; ``pump`` (and ``wait``, ``shutdown``) take the lines from it in the caller's
+    thread, record them in ``output`` and pass them to ``echo``, so a notebook cell shows
+    them where it runs.
     """
 
     def __init__(
@@ -201,75 +721,125 @@ class Launch:
         *,
         env: Mapping[str, str] | None = None,
         echo: Callable[[str], None] | None = print,
+        launch_arguments: Iterable[tuple[str, str]] = (),
     ) -> None:
+        if not isinstance(description, LaunchDescription):
+            raise LaunchError(
+                f"expected a LaunchDescription, got {type(description).__name__}: "
+                "generate_launch_description() must return LaunchDescription([...])"
+            )
         self.description = description
         self.env = dict(os.environ if env is None else env)
         self.echo = echo
         self.output: list[str] = []
         self.processes: list[Process] = []
         self.shutting_down: str | None = None
+        self.handlers: list[tuple[Any, LaunchContext]] = []
         self._queue: queue.Queue[tuple[Process | None, str]] = queue.Queue()
         self._readers: list[threading.Thread] = []
-        self._plan = self._resolve()
+        self._plan: list[Planned] = []
+        self._timers: list[_Timer] = []
+        self._started = False
+        context = LaunchContext(self.env, launch=self)
+        context.launch_configurations.update(launch_arguments)
+        self.visit([description], context)
 
-    # -- starting ----------------------------------------------------------------
-    def _resolve(self) -> list[tuple[Node, list[str]]]:
-        """Every node's command line, checked before anything starts."""
-        plan: list[tuple[Node, list[str]]] = []
-        global_parameters: dict[str, Any] = {}
-        entities = getattr(self.description, "entities", None)
-        if entities is None:
-            raise LaunchError(
-                f"expected a LaunchDescription, got {type(self.description).__name__}: "
-                "generate_launch_description() must return LaunchDescription([...])"
-            )
+    # -- visiting --------------------------------------------------------------------
+    def visit(self, entities: Iterable[Entity], context: LaunchContext) -> None:
+        """Visit ``entities`` in order, each one's sub-entities right after it."""
         for entity in entities:
-            if isinstance(entity, SetParameter):
-                global_parameters[entity.name] = entity.value
-            elif isinstance(entity, Node):
-                try:
-                    path = executable_path(entity.package, entity.executable, self.env)
-                except LookupError as error:
-                    raise LaunchError(str(error)) from None
-                plan.append((entity, entity.command(path, global_parameters)))
+            if isinstance(entity, LaunchDescription):
+                children = entity.entities
+            elif isinstance(entity, Action):
+                children = entity.visit(context)
             else:
                 raise LaunchError(
-                    f"cannot launch {entity!r}: this launcher knows Node and SetParameter"
+                    f"cannot launch {entity!r}: expected an action of launch or launch_ros"
                 )
-        return plan
+            if children:
+                self.visit(children, context)
 
+    def _visit_later(self, entities: list[Entity], context: LaunchContext) -> None:
+        """Visit what a timer or an event brought; an error is logged and stops the launch."""
+        try:
+            self.visit(entities, context)
+        except LaunchError as error:
+            self.say(f"[ERROR] [launch]: {error}")
+            self.begin_shutdown(f"error in a launch action: {error}")
+
+    def plan(self, planned: Planned) -> None:
+        """Start this process now if the launch runs, else when it starts."""
+        if not self._started:
+            self._plan.append(planned)
+        elif self.shutting_down is None:
+            self._start(planned)
+
+    def add_timer(self, period: float, actions: list[Entity], context: LaunchContext) -> None:
+        timer = _Timer(period, actions, context)
+        if self._started:
+            timer.due = time.monotonic() + period
+        self._timers.append(timer)
+
+    def _fire_timers(self) -> None:
+        now = time.monotonic()
+        for timer in [t for t in self._timers if t.due is not None and t.due <= now]:
+            self._timers.remove(timer)
+            if self.shutting_down is None:
+                self._visit_later(timer.actions, timer.context)
+
+    def _emit(self, event: ProcessStarted, entities: list[Entity], context: LaunchContext) -> None:
+        """Visit the actions a process event brings (its own ``on_exit``, then handlers)."""
+        for handler, handler_context in list(self.handlers):
+            if handler.matches(event):
+                self._visit_later(handler.handle(event, handler_context), handler_context)
+        if entities:
+            self._visit_later(entities, context)
+
+    # -- starting ----------------------------------------------------------------
     def start(self) -> Launch:
-        """Start every node, in order."""
-        for node, cmd in self._plan:
-            label = node.exec_name or Path(cmd[0]).name
-            name = f"{label}-{len(self.processes) + 1}"
-            env = dict(self.env)
-            env.setdefault("PYTHONUNBUFFERED", "1")  # as launch does
-            env.setdefault("RCUTILS_LOGGING_BUFFERED_STREAM", "1")  # log lines, not blocks
-            env.update(node.additional_env or {})
-            popen = subprocess.Popen(
-                cmd,
-                env=env,
-                stdin=subprocess.DEVNULL,
-                stdout=subprocess.PIPE,
-                stderr=subprocess.PIPE,
-                start_new_session=True,  # our Ctrl-C is forwarded once, by us
-                preexec_fn=_die_with_launcher,
-            )
-            process = Process(node, name, cmd, popen)
-            self.processes.append(process)
-            self._say(f"[INFO] [{name}]: process started with pid [{popen.pid}]")
-            for stream, to_screen in (
-                (popen.stdout, node.output in ("screen", "both")),
-                (popen.stderr, True),
-            ):
-                reader = threading.Thread(
-                    target=self._read, args=(process, stream, to_screen), daemon=True
-                )
-                reader.start()
-                self._readers.append(reader)
+        """Start every process planned, in order, and the timers."""
+        self._started = True
         _running.add(self)
+        for planned in self._plan:
+            self._start(planned)
+        for timer in self._timers:
+            timer.due = time.monotonic() + timer.period
         return self
+
+    def _start(self, planned: Planned) -> None:
+        action = planned.action
+        name = f"{planned.label}-{len(self.processes) + 1}"
+        env = dict(planned.env)
+        env.setdefault("PYTHONUNBUFFERED", "1")  # as launch does
+        env.setdefault("RCUTILS_LOGGING_BUFFERED_STREAM", "1")  # log lines, not blocks
+        cmd = planned.cmd
+        popen = subprocess.Popen(
+            " ".join(cmd) if action.shell else cmd,
+            shell=action.shell,
+            cwd=planned.cwd,
+            env=env,
+            stdin=subprocess.DEVNULL,
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            start_new_session=True,  # our Ctrl-C is forwarded once, by us
+            preexec_fn=_die_with_launcher,
+        )
+        process = Process(action, name, cmd, popen, planned.context)
+        if isinstance(action, Node):
+            process.node_name = action.node_name(planned.context)
+            process.namespace = action.node_namespace(planned.context)
+        self.processes.append(process)
+        self.say(f"[INFO] [{name}]: process started with pid [{popen.pid}]")
+        for stream, to_screen in (
+            (popen.stdout, action.output in ("screen", "both")),
+            (popen.stderr, True),
+        ):
+            reader = threading.Thread(
+                target=self._read, args=(process, stream, to_screen), daemon=True
+            )
+            reader.start()
+            self._readers.append(reader)
+        self._emit(ProcessStarted(action, name, cmd, popen.pid), [], planned.context)
 
     def _read(self, process: Process, stream: IO[bytes] | None, to_screen: bool) -> None:
         assert stream is not None
@@ -280,16 +850,18 @@ class Launch:
                 self._queue.put((process, line))
         stream.close()
 
-    def _say(self, line: str) -> None:
+    def say(self, line: str) -> None:
+        """Print a line of the launch's own (``[INFO] [launch]: ...``) in order."""
         self._queue.put((None, line))
 
     # -- running -----------------------------------------------------------------
     def pump(self, timeout: float = 0.0) -> list[str]:
-        """Handle output and exits for up to ``timeout`` seconds; return the new lines."""
+        """Handle output, exits and timers for up to ``timeout`` seconds; the new lines."""
         new: list[str] = []
         deadline = time.monotonic() + timeout
         while True:
             self._check_exits()
+            self._fire_timers()
             remaining = deadline - time.monotonic()
             try:
                 if remaining > 0:
@@ -314,27 +886,33 @@ class Launch:
                 continue
             process.reported = True
             if code == 0:
-                self._say(
+                self.say(
                     f"[INFO] [{process.name}]: process has finished cleanly [pid {process.pid}]"
                 )
             else:
-                self._say(
+                self.say(
                     f"[ERROR] [{process.name}]: process has died [pid {process.pid}, exit code "
                     f"{code}, cmd '{' '.join(process.cmd)}']."
                 )
-            if isinstance(process.node.on_exit, Shutdown) and self.shutting_down is None:
-                self._begin_shutdown(
-                    f"{process.name} exited and its on_exit is Shutdown "
-                    f"({process.node.on_exit.reason})"
-                )
+            event = ProcessExited(process.node, process.name, process.cmd, process.pid, code)
+            on_exit = process.node.on_exit
+            if callable(on_exit) and not isinstance(on_exit, Action):
+                on_exit = on_exit(event, process.context)
+            self._emit(event, _entities(on_exit), process.context)
 
     def running(self) -> list[Process]:
         return [p for p in self.processes if p.alive()]
 
+    def busy(self) -> bool:
+        """Processes still run (or their exit is still to handle), or timers are to fire."""
+        unhandled = any(not p.reported for p in self.processes)
+        return unhandled or bool(self._timers and self.shutting_down is None)
+
     def wait(self, timeout: float | None = None) -> bool:
-        """Pump until every process has exited; whether they did within ``timeout``."""
+        """Pump until every process has exited and every timer fired; whether they did
+        within ``timeout``."""
         deadline = None if timeout is None else time.monotonic() + timeout
-        while self.running():
+        while self.busy():
             if deadline is not None and time.monotonic() >= deadline:
                 return False
             self.pump(0.1)
@@ -346,13 +924,13 @@ class Launch:
         try:
             self.wait()
         except KeyboardInterrupt:
-            self._say("[WARNING] [launch]: user interrupted with ctrl-c (SIGINT)")
+            self.say("[WARNING] [launch]: user interrupted with ctrl-c (SIGINT)")
             while True:
                 try:
                     self.shutdown()
                     break
                 except KeyboardInterrupt:  # as launch does: SIGTERM, SIGKILL come in time
-                    self._say(
+                    self.say(
                         "[WARNING] [launch]: user interrupted with ctrl-c (SIGINT) again, "
                         "ignoring..."
                     )
@@ -360,9 +938,12 @@ class Launch:
         return 0 if all(p.returncode == 0 for p in self.processes) else 1
 
     # -- stopping ----------------------------------------------------------------
-    def _begin_shutdown(self, reason: str) -> None:
+    def begin_shutdown(self, reason: str) -> None:
+        """Ctrl-C every process (once: a second request while stopping changes nothing)."""
+        if self.shutting_down is not None:
+            return
         self.shutting_down = reason
-        self._say(f"[INFO] [launch]: shutting down: {reason}")
+        self.say(f"[INFO] [launch]: shutting down: {reason}")
         for process in self.running():
             self._signal(process, signal.SIGINT)
 
@@ -377,7 +958,7 @@ class Launch:
     ) -> dict[str, int]:
         """Ctrl-C every process, escalate to SIGTERM then SIGKILL; exit code by name."""
         if self.shutting_down is None:
-            self._begin_shutdown("stop requested (Ctrl-C)")
+            self.begin_shutdown("stop requested (Ctrl-C)")
         for sig, attr, override in (
             (signal.SIGTERM, "sigterm_timeout", sigterm_timeout),
             (signal.SIGKILL, "sigkill_timeout", sigkill_timeout),
@@ -389,7 +970,7 @@ class Launch:
             while self.running() and time.monotonic() < deadline:
                 self.pump(0.05)
             for process in self.running():
-                self._say(f"[WARNING] [{process.name}]: still running: sending {sig.name}")
+                self.say(f"[WARNING] [{process.name}]: still running: sending {sig.name}")
                 self._signal(process, sig)
         for process in self.processes:
             process.popen.wait()
@@ -408,7 +989,7 @@ class Launch:
     def process(self, name: str) -> Process:
         """The process named ``name`` (``talker-1``) or whose node is named ``name``."""
         for process in self.processes:
-            if name in (process.name, process.node.name):
+            if name in (process.name, process.node_name):
                 return process
         raise KeyError(f"no process {name!r}: {[p.name for p in self.processes]}")
 
@@ -424,14 +1005,45 @@ def launch(
     *,
     env: Mapping[str, str] | None = None,
     echo: Callable[[str], None] | None = print,
+    launch_arguments: Iterable[tuple[str, str]] = (),
 ) -> Launch:
     """Start ``description``; use as ``with launch(ld) as system: ...`` (stops on exit)."""
-    return Launch(description, env=env, echo=echo).start()
+    return Launch(description, env=env, echo=echo, launch_arguments=launch_arguments).start()
+
+
+#: This project's upstream-named front ends, which launch files import.
+FRONT_ENDS = ("launch", "launch_ros")
+
+
+def _front_ends_for_launch_files() -> None:
+    """Make ``import launch`` / ``import launch_ros`` give this project's packages.
+
+    A ROS package's ``launch/`` folder on ``sys.path`` (its ``--symlink-install`` build
+    folder is on ``PYTHONPATH`` once the workspace is sourced) is a namespace package to
+    Python's path finder, which comes before the finder of an editable install: the
+    launch file would get that empty folder. A full install's ``launch`` is a regular
+    package, which wins over such folders; here the editable finder is asked directly.
+    """
+    for name in FRONT_ENDS:
+        loaded = sys.modules.get(name)
+        if loaded is not None and getattr(loaded, "__file__", None):
+            continue
+        for finder in sys.meta_path:
+            find_spec = getattr(finder, "find_spec", None)
+            spec = find_spec(name, None) if find_spec else None
+            if spec is not None and spec.loader is not None and spec.has_location:
+                module = importlib.util.module_from_spec(spec)
+                sys.modules[name] = module
+                spec.loader.exec_module(module)
+                break
 
 
 def load_launch_file(path: str | os.PathLike[str]) -> LaunchDescription:
     """Run a Python launch file and return its ``generate_launch_description()``."""
     source = Path(path)
+    if not source.is_file():
+        raise LaunchError(f"no launch file '{source}'")
+    _front_ends_for_launch_files()
     namespace: dict[str, Any] = {"__file__": str(source), "__name__": "__launch_file__"}
     exec(compile(source.read_text(), str(source), "exec"), namespace)  # noqa: S102
     generate = namespace.get("generate_launch_description")
@@ -440,9 +1052,11 @@ def load_launch_file(path: str | os.PathLike[str]) -> LaunchDescription:
     return generate()
 
 
-def node_names(description: LaunchDescription) -> Iterable[str]:
-    """Fully qualified names the description's nodes will have (when it names them)."""
-    for entity in description.entities:
-        if isinstance(entity, Node) and entity.name:
-            namespace = absolute_name(entity.namespace or "/").rstrip("/")
-            yield f"{namespace}/{entity.name}"
+def include(
+    path: str | os.PathLike[str], launch_arguments: Iterable[tuple[str, str]] = ()
+) -> LaunchDescription:
+    """A description that includes the launch file ``path`` with these arguments (what
+    ``ros2 launch`` runs, as upstream: required arguments are checked, the file's folder
+    is ``ThisLaunchFileDir``)."""
+    source = PythonLaunchDescriptionSource(os.fspath(path))
+    return LaunchDescription([IncludeLaunchDescription(source, launch_arguments=launch_arguments)])

@@ -1,4 +1,5 @@
-from rosbook.launch.launcher import LaunchDescription, Node
+from launch import LaunchDescription
+from launch_ros.actions import Node
 
 
 def generate_launch_description():
