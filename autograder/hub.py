@@ -1,0 +1,248 @@
+"""The course server's pieces: each student's JupyterLab in a sandbox, and the roster.
+
+``make hub`` runs JupyterHub with ``autograder/jupyterhub_config.py``, which uses:
+
+- ``SandboxSpawner``: a student's single-user server runs in the grader's sandbox
+  (``autograder.sandbox``: its own user, PID, IPC and mount namespaces, the system and
+  the venv read-only, per-process memory and process limits) on a ``Network`` of its
+  own: a loopback only, so ROS traffic never crosses students, whatever their
+  ``ROS_DOMAIN_ID``. The student's home is their own folder on the host
+  (``home_dir_template``) bound at ``/home/student``; no other student's folder exists
+  in the sandbox.
+- **Crossing the network namespace.** Nothing outside reaches the sandbox's loopback
+  and the server reaches nothing outside, so both ways go through unix sockets, which
+  are files (``autograder.relay``): the server listens on ``/run/hub/jupyter.sock``
+  (a per-student host folder bound there) and a relay in the hub process gives the
+  proxy and the hub a TCP port on the host's loopback for it; the server calls the hub's
+  API at its usual address, where a relay joined to the sandbox's network
+  (``Network.join_argv``, outside the sandbox otherwise) listens and pipes to a unix
+  socket the hub process serves, out of the student's reach.
+- Stopping a server kills its sandbox (its PID namespace ends with its first process)
+  and its network; bwrap and the network holder die with the hub too
+  (``--die-with-parent``), and the joined relay ends when its standard input closes.
+- ``RosterAuthenticator``: each student and instructor has a password of their own
+  (``python -m autograder.hub add NAME [--instructor]`` prints it; only its scrypt hash
+  is kept); instructors are the hub's admins.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import hashlib
+import hmac
+import json
+import os
+import secrets
+import shutil
+import signal
+import subprocess
+import sys
+from pathlib import Path
+from typing import Any
+from urllib.parse import urlparse, urlunparse
+
+from jupyterhub.auth import Authenticator
+from jupyterhub.spawner import SimpleLocalProcessSpawner
+from traitlets import Integer, Unicode
+
+from autograder import relay
+from autograder.sandbox import HOME, Limits, Network, prepare, start
+
+ROOT = Path(__file__).resolve().parent.parent
+#: Inside each sandbox: the folder holding the server's socket.
+RUN = "/run/hub"
+#: A hang guard for a relay or a server to come up (a loaded machine is slow).
+START_TIMEOUT = 120.0
+
+
+def state_dir() -> Path:
+    """The hub's state (roster, database, homes): ``ROSBOOK_HUB_DIR`` or ``.hub/``."""
+    return Path(os.environ.get("ROSBOOK_HUB_DIR", ROOT / ".hub")).resolve()
+
+
+def _in_netns(url: str, port: int) -> str:
+    """``url`` with its host the sandbox's loopback (where the joined relay listens)."""
+    parts = urlparse(url)
+    return urlunparse(parts._replace(netloc=f"127.0.0.1:{port}"))
+
+
+class SandboxSpawner(SimpleLocalProcessSpawner):  # type: ignore[misc]
+    """A LocalProcessSpawner whose command runs in the sandbox, on a network of its own."""
+
+    memory = Integer(Limits.memory, config=True, help="Address space of each process (bytes).")
+    processes = Integer(Limits.processes, config=True, help="Processes and threads.")
+    disk = Integer(Limits.disk, config=True, help="Size of the sandbox's /tmp (bytes).")
+    run_dir = Unicode(
+        str(ROOT / ".hub" / "run"), config=True, help="Host folder of per-student sockets."
+    )
+    jupyter_config = Unicode(
+        str(ROOT / "rosbook" / "jupyterlab_config.py"),
+        config=True,
+        help="The single-user server's config file (make lab's: terminals with ros2).",
+    )
+
+    _proc: subprocess.Popen[bytes] | None = None
+    _network: Network | None = None
+    _joined: subprocess.Popen[bytes] | None = None
+    _relays: list[asyncio.AbstractServer]
+
+    def _limits(self) -> Limits:
+        return Limits(memory=self.memory, processes=self.processes, disk=self.disk)
+
+    async def _join_relay(self, listen: str, connect: str) -> subprocess.Popen[bytes]:
+        assert self._network is not None
+        argv = self._network.join_argv([sys.executable, "-m", "autograder.relay", listen, connect])
+        proc = subprocess.Popen(argv, stdin=subprocess.PIPE, stdout=subprocess.PIPE, cwd=ROOT)
+        assert proc.stdout is not None
+        try:
+            line = await asyncio.wait_for(
+                asyncio.to_thread(proc.stdout.readline), timeout=START_TIMEOUT
+            )
+        except asyncio.TimeoutError:
+            proc.kill()
+            raise RuntimeError(f"relay in the sandbox's network: timeout after {START_TIMEOUT} s")
+        if not line.startswith(b"ready"):
+            raise RuntimeError(f"relay in the sandbox's network failed (exit {proc.poll()})")
+        return proc
+
+    async def start(self) -> tuple[str, int]:  # type: ignore[override]
+        home = Path(self.home_dir)
+        home.mkdir(parents=True, exist_ok=True)
+        run = Path(self.run_dir) / self.user.name
+        server_dir = run / "server"
+        server_dir.mkdir(parents=True, exist_ok=True)
+        for stale in (server_dir / "jupyter.sock", run / "hub.sock"):
+            stale.unlink(missing_ok=True)
+        shutil.rmtree(run / "private", ignore_errors=True)  # the last start's files
+        if os.geteuid() == 0:  # the sandbox is nobody outside (autograder.sandbox)
+            for folder in (home, server_dir):
+                os.chown(folder, 65534, 65534)
+        env = self.get_env()
+        hub = urlparse(self.hub.api_url)
+        hub_port = hub.port or 80
+        self._relays = []
+        self._network = Network()
+        # the server -> the hub's API: joined relay (in the sandbox's network) -> unix
+        # socket -> the hub process -> the hub's API on the host
+        self._relays.append(
+            await relay.serve(f"unix:{run / 'hub.sock'}", f"tcp:{hub.hostname}:{hub_port}")
+        )
+        self._joined = await self._join_relay(
+            f"tcp:127.0.0.1:{hub_port}", f"unix:{run / 'hub.sock'}"
+        )
+        for key in ("JUPYTERHUB_API_URL", "JUPYTERHUB_ACTIVITY_URL"):
+            env[key] = _in_netns(env[key], hub_port)
+        # the proxy and the hub -> the server: a host port -> the server's unix socket
+        to_server = await relay.serve("tcp:127.0.0.1:0", f"unix:{server_dir / 'jupyter.sock'}")
+        self._relays.append(to_server)
+        self.port = relay.port(to_server)
+        self.ip = "127.0.0.1"
+        # jupyter-server refuses a unix socket with a port other than its default one
+        prefix = urlparse(env["JUPYTERHUB_SERVICE_URL"]).path
+        env["JUPYTERHUB_SERVICE_URL"] = f"http://127.0.0.1:8888{prefix}"
+        cmd = [
+            *self.cmd,
+            *self.get_args(),
+            f"--config={self.jupyter_config}",
+            f"--ServerApp.sock={RUN}/jupyter.sock",
+        ]
+        launch = prepare(
+            cmd,
+            network=self._network,
+            private=run / "private",
+            env=env,
+            limits=self._limits(),
+            binds={HOME: home, RUN: server_dir},
+        )
+        launch.env.update(
+            {k: v for k, v in env.items() if k.startswith("JUPYTERHUB_") or k == "JPY_API_TOKEN"}
+        )
+        self._proc, _ = await asyncio.to_thread(start, launch, stdin=subprocess.DEVNULL)
+        self.pid = self._proc.pid
+        return self.ip, self.port
+
+    async def poll(self) -> int | None:  # type: ignore[override]
+        if self._proc is None:
+            return 0
+        return self._proc.poll()
+
+    async def stop(self, now: bool = False) -> None:  # type: ignore[override]
+        proc, self._proc = self._proc, None
+        if proc is not None:
+            if proc.poll() is None and not now:
+                proc.send_signal(signal.SIGTERM)
+            try:
+                await asyncio.wait_for(asyncio.to_thread(proc.wait), timeout=10)
+            except asyncio.TimeoutError:
+                pass
+            if proc.poll() is None:
+                proc.kill()  # bwrap: the sandbox's PID namespace dies with it
+            await asyncio.to_thread(proc.wait)
+        for server in getattr(self, "_relays", []):
+            server.close()
+        self._relays = []
+        if self._joined is not None:
+            assert self._joined.stdin is not None
+            self._joined.stdin.close()  # the relay ends at EOF
+            await asyncio.to_thread(self._joined.wait)
+            self._joined = None
+        if self._network is not None:
+            self._network.close()
+            self._network = None
+
+    def get_state(self) -> dict[str, Any]:
+        return {}  # nothing of a student survives the hub: no pid to find again
+
+    def load_state(self, state: dict[str, Any]) -> None:
+        pass
+
+
+def _hash(password: str, salt: bytes) -> str:
+    return hashlib.scrypt(password.encode(), salt=salt, n=1 << 14, r=8, p=1).hex()
+
+
+class RosterAuthenticator(Authenticator):  # type: ignore[misc]
+    """A password of each person's own, from a roster file of scrypt hashes."""
+
+    roster = Unicode(str(ROOT / ".hub" / "roster.json"), config=True, help="The roster file.")
+
+    def _people(self) -> dict[str, dict[str, Any]]:
+        path = Path(self.roster)
+        return json.loads(path.read_text()) if path.exists() else {}
+
+    def check_allowed(self, username: str, authentication: Any = None) -> bool:
+        return username in self._people()
+
+    def is_admin(self, handler: Any, authentication: dict[str, Any]) -> bool:
+        return bool(self._people().get(authentication["name"], {}).get("instructor"))
+
+    async def authenticate(self, handler: Any, data: dict[str, str]) -> str | None:
+        person = self._people().get(data.get("username", ""))
+        if person is None:
+            return None
+        given = _hash(data.get("password", ""), bytes.fromhex(person["salt"]))
+        return data["username"] if hmac.compare_digest(given, person["hash"]) else None
+
+
+def add(roster: Path, name: str, instructor: bool = False) -> str:
+    """Add (or reset) ``name`` in ``roster``; the new password (shown once)."""
+    people = json.loads(roster.read_text()) if roster.exists() else {}
+    password, salt = secrets.token_urlsafe(12), secrets.token_bytes(16)
+    people[name] = {"salt": salt.hex(), "hash": _hash(password, salt), "instructor": instructor}
+    roster.parent.mkdir(parents=True, exist_ok=True)
+    roster.write_text(json.dumps(people, indent=1))
+    os.chmod(roster, 0o600)
+    return password
+
+
+if __name__ == "__main__":
+    import argparse
+
+    parser = argparse.ArgumentParser(prog="python -m autograder.hub")
+    sub = parser.add_subparsers(dest="command", required=True)
+    adding = sub.add_parser("add", help="add a student (or --instructor); prints the password")
+    adding.add_argument("names", nargs="+")
+    adding.add_argument("--instructor", action="store_true")
+    args = parser.parse_args()
+    for name in args.names:
+        print(f"{name} {add(state_dir() / 'roster.json', name, args.instructor)}")
