@@ -37,6 +37,7 @@ import shutil
 import signal
 import subprocess
 import sys
+import tempfile
 from pathlib import Path
 from typing import Any
 from urllib.parse import urlparse, urlunparse
@@ -85,6 +86,7 @@ class SandboxSpawner(SimpleLocalProcessSpawner):  # type: ignore[misc]
     _network: Network | None = None
     _joined: subprocess.Popen[bytes] | None = None
     _relays: list[asyncio.AbstractServer]
+    _private = ""  # the sandbox's generated files (autograder.sandbox.prepare)
 
     def _limits(self) -> Limits:
         return Limits(memory=self.memory, processes=self.processes, disk=self.disk)
@@ -98,9 +100,11 @@ class SandboxSpawner(SimpleLocalProcessSpawner):  # type: ignore[misc]
             line = await asyncio.wait_for(
                 asyncio.to_thread(proc.stdout.readline), timeout=START_TIMEOUT
             )
-        except asyncio.TimeoutError:
+        except asyncio.TimeoutError as exc:
             proc.kill()
-            raise RuntimeError(f"relay in the sandbox's network: timeout after {START_TIMEOUT} s")
+            raise RuntimeError(
+                f"relay in the sandbox's network: timeout after {START_TIMEOUT} s"
+            ) from exc
         if not line.startswith(b"ready"):
             raise RuntimeError(f"relay in the sandbox's network failed (exit {proc.poll()})")
         return proc
@@ -113,7 +117,6 @@ class SandboxSpawner(SimpleLocalProcessSpawner):  # type: ignore[misc]
         server_dir.mkdir(parents=True, exist_ok=True)
         for stale in (server_dir / "jupyter.sock", run / "hub.sock"):
             stale.unlink(missing_ok=True)
-        shutil.rmtree(run / "private", ignore_errors=True)  # the last start's files
         if os.geteuid() == 0:  # the sandbox is nobody outside (autograder.sandbox)
             for folder in (home, server_dir):
                 os.chown(folder, 65534, 65534)
@@ -146,10 +149,12 @@ class SandboxSpawner(SimpleLocalProcessSpawner):  # type: ignore[misc]
             f"--config={self.jupyter_config}",
             f"--ServerApp.sock={RUN}/jupyter.sock",
         ]
+        self._private = tempfile.mkdtemp(prefix=f"rosbook-hub-{self.user.name}-")
         launch = prepare(
             cmd,
             network=self._network,
-            private=run / "private",
+            # where nobody (the sandbox, when the hub is root) can traverse, whatever run is
+            private=Path(self._private),
             env=env,
             limits=self._limits(),
             binds={HOME: home, RUN: server_dir},
@@ -189,6 +194,9 @@ class SandboxSpawner(SimpleLocalProcessSpawner):  # type: ignore[misc]
         if self._network is not None:
             self._network.close()
             self._network = None
+        if self._private:
+            shutil.rmtree(self._private, ignore_errors=True)
+            self._private = ""
 
     def get_state(self) -> dict[str, Any]:
         return {}  # nothing of a student survives the hub: no pid to find again
