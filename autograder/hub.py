@@ -20,6 +20,20 @@
 - Stopping a server kills its sandbox (its PID namespace ends with its first process)
   and its network; bwrap and the network holder die with the hub too
   (``--die-with-parent``), and the joined relay ends when its standard input closes.
+- **The nbgrader exchange.** nbgrader's shared exchange folder relies on Unix users and
+  file modes to keep students apart; here every student is the same uid, so one shared
+  folder would let any student read (or overwrite) another's submission. Instead each
+  student has an exchange of their own (``exchange/NAME``, bound at nbgrader's default
+  ``/srv/nbgrader/exchange``), and only the hub's side, which sees them all, crosses
+  between them: ``release`` copies a lab into every student's ``outbound``,
+  ``collect`` copies each student's latest submission from their ``inbound`` into the
+  grader's ``SUBMISSIONS/NAME/LAB/`` under their roster name (inside, everyone is
+  "student"), and ``feedback`` puts the grader's feedback for each student into that
+  student's ``feedback`` only, named as nbgrader's ``fetch_feedback`` looks for it
+  (the hash of their submission's secret and the notebook). Students use the
+  Assignments tab (or ``nbgrader fetch_assignment/validate/submit/fetch_feedback``) as
+  on any nbgrader course; the instructor runs ``python -m autograder.hub release|collect|
+  feedback`` and ``python -m autograder grade``.
 - ``RosterAuthenticator``: each student and instructor has a password of their own
   (``python -m autograder.hub add NAME [--instructor]`` prints it; only its scrypt hash
   is kept); instructors are the hub's admins.
@@ -44,14 +58,25 @@ from urllib.parse import urlparse, urlunparse
 
 from jupyterhub.auth import Authenticator
 from jupyterhub.spawner import SimpleLocalProcessSpawner
+from nbgrader.utils import notebook_hash
 from traitlets import Integer, Unicode
+from traitlets.config.loader import PyFileConfigLoader
 
 from autograder import relay
 from autograder.sandbox import HOME, Limits, Network, prepare, start
+from rosbook.runtime.isolation import BASE_ENV
 
 ROOT = Path(__file__).resolve().parent.parent
 #: Inside each sandbox: the folder holding the server's socket.
 RUN = "/run/hub"
+#: nbgrader's exchange inside each sandbox (its default root).
+EXCHANGE = "/srv/nbgrader/exchange"
+#: The course's id, from the course's nbgrader configuration.
+COURSE = str(
+    PyFileConfigLoader("nbgrader_config.py", path=str(ROOT / "autograder"))
+    .load_config()
+    .CourseDirectory.course_id
+)
 #: A hang guard for a relay or a server to come up (a loaded machine is slow).
 START_TIMEOUT = 120.0
 
@@ -117,10 +142,18 @@ class SandboxSpawner(SimpleLocalProcessSpawner):  # type: ignore[misc]
         server_dir.mkdir(parents=True, exist_ok=True)
         for stale in (server_dir / "jupyter.sock", run / "hub.sock"):
             stale.unlink(missing_ok=True)
+        exchange = _exchange(self.user.name)
+        config = home / ".jupyter" / "nbgrader_config.py"
+        if not config.exists():
+            config.parent.mkdir(parents=True, exist_ok=True)
+            config.write_text(
+                f"c.CourseDirectory.course_id = {COURSE!r}\nc.Exchange.root = {EXCHANGE!r}\n"
+            )
         if os.geteuid() == 0:  # the sandbox is nobody outside (autograder.sandbox)
-            for folder in (home, server_dir):
+            for folder in (home, config.parent, config, server_dir, *exchange.rglob("*"), exchange):
                 os.chown(folder, 65534, 65534)
         env = self.get_env()
+        env.update(BASE_ENV)  # the course's ROS settings (log lines on stdout, as graded)
         hub = urlparse(self.hub.api_url)
         hub_port = hub.port or 80
         self._relays = []
@@ -157,7 +190,7 @@ class SandboxSpawner(SimpleLocalProcessSpawner):  # type: ignore[misc]
             private=Path(self._private),
             env=env,
             limits=self._limits(),
-            binds={HOME: home, RUN: server_dir},
+            binds={HOME: home, RUN: server_dir, EXCHANGE: exchange},
         )
         launch.env.update(
             {k: v for k, v in env.items() if k.startswith("JUPYTERHUB_") or k == "JPY_API_TOKEN"}
@@ -203,6 +236,76 @@ class SandboxSpawner(SimpleLocalProcessSpawner):  # type: ignore[misc]
 
     def load_state(self, state: dict[str, Any]) -> None:
         pass
+
+
+def _exchange(name: str) -> Path:
+    """``name``'s own nbgrader exchange (created with the course's three folders)."""
+    root = state_dir() / "exchange" / name
+    for folder in ("outbound", "inbound", "feedback"):
+        (root / COURSE / folder).mkdir(parents=True, exist_ok=True)
+    return root
+
+
+def _students() -> list[str]:
+    roster = state_dir() / "roster.json"
+    people = json.loads(roster.read_text()) if roster.exists() else {}
+    return sorted(name for name, person in people.items() if not person.get("instructor"))
+
+
+def _owned(path: Path) -> None:
+    """Give ``path`` (a tree) to the sandboxes' outside user (nobody when root)."""
+    if os.geteuid() == 0:
+        for item in (path, *path.rglob("*")):
+            os.chown(item, 65534, 65534)
+
+
+def release(lab: str, labs: Path = ROOT / "labs") -> list[str]:
+    """Copy ``labs/LAB`` into every student's outbound; the students."""
+    students = _students()
+    for name in students:
+        target = _exchange(name) / COURSE / "outbound" / lab
+        shutil.rmtree(target, ignore_errors=True)
+        shutil.copytree(labs / lab, target)
+        _owned(_exchange(name))
+    return students
+
+
+def _latest(name: str, lab: str) -> Path | None:
+    inbound = _exchange(name) / COURSE / "inbound"
+    found = sorted(inbound.glob(f"*+{lab}+*"), key=lambda p: p.name.rsplit("+", 1)[1])
+    return found[-1] if found else None
+
+
+def collect(lab: str, submissions: Path) -> list[str]:
+    """Each student's latest submission of ``lab`` into ``submissions/NAME/LAB/``."""
+    collected = []
+    for name in _students():
+        latest = _latest(name, lab)
+        if latest is None:
+            continue
+        target = submissions / name / lab
+        shutil.rmtree(target, ignore_errors=True)
+        shutil.copytree(latest, target)
+        collected.append(name)
+    return collected
+
+
+def feedback(lab: str, graded: Path) -> list[str]:
+    """The grader's feedback (``graded/feedback/NAME/LAB/*.html``) into each student's
+    own exchange, where ``nbgrader fetch_feedback`` finds it for their latest submission."""
+    returned = []
+    for name in _students():
+        latest = _latest(name, lab)
+        pages = sorted((graded / "feedback" / name / lab).glob("*.html"))
+        if latest is None or not (latest / "submission_secret.txt").exists():
+            continue
+        secret = (latest / "submission_secret.txt").read_text()
+        for page in pages:
+            digest = notebook_hash(secret=secret, notebook_id=page.stem)
+            shutil.copyfile(page, _exchange(name) / COURSE / "feedback" / f"{digest}.html")
+        _owned(_exchange(name))
+        returned += [name] if pages else []
+    return returned
 
 
 def _hash(password: str, salt: bytes) -> str:
@@ -251,6 +354,21 @@ if __name__ == "__main__":
     adding = sub.add_parser("add", help="add a student (or --instructor); prints the password")
     adding.add_argument("names", nargs="+")
     adding.add_argument("--instructor", action="store_true")
+    releasing = sub.add_parser("release", help="copy labs/LAB to every student")
+    releasing.add_argument("lab")
+    collecting = sub.add_parser("collect", help="latest submissions into SUBMISSIONS/NAME/LAB")
+    collecting.add_argument("lab")
+    collecting.add_argument("submissions", type=Path)
+    returning = sub.add_parser("feedback", help="GRADED/feedback/NAME/LAB to each student")
+    returning.add_argument("lab")
+    returning.add_argument("graded", type=Path)
     args = parser.parse_args()
-    for name in args.names:
-        print(f"{name} {add(state_dir() / 'roster.json', name, args.instructor)}")
+    if args.command == "add":
+        for name in args.names:
+            print(f"{name} {add(state_dir() / 'roster.json', name, args.instructor)}")
+    elif args.command == "release":
+        print("released to", " ".join(release(args.lab)))
+    elif args.command == "collect":
+        print("collected from", " ".join(collect(args.lab, args.submissions)))
+    else:
+        print("feedback to", " ".join(feedback(args.lab, args.graded)))

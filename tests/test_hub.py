@@ -15,6 +15,7 @@ import os
 import signal
 import socket
 import subprocess
+import sys
 import time
 import urllib.request
 from collections.abc import Iterator
@@ -33,6 +34,7 @@ from tests.test_jupyterlab import CELL_S, LAB, START_S, _index, _run_cell
 STUDENTS = ("ada", "ben", "cyd")
 INSTRUCTOR = "prof"
 STOP_S = 120  # a hang guard for the hub's stop
+GRADE_S = 900  # a hang guard for the instructor's commands (grading three on a busy machine)
 
 
 def _free_port() -> int:
@@ -93,6 +95,7 @@ def hub(tmp_path_factory: pytest.TempPathFactory) -> Iterator[dict[str, Any]]:
             nbformat.v4.new_code_cell(f"import rclpy\nmarker = rclpy.create_node('only_{name}')")
         )
         nbformat.write(notebook, home / f"{LAB}.ipynb")
+        nbformat.write(answered(LAB), home / "answers.ipynb")  # what they will submit
     port = _free_port()
     env = child_env()
     env.update(
@@ -168,6 +171,62 @@ def _wait_for_text(path: Path, end: str) -> str:
         assert time.monotonic() < deadline, f"timeout: {path} never ended with {end}"
         time.sleep(0.2)  # polling for the file the terminal writes
     return path.read_text()
+
+
+def _hub_command(hub: dict[str, Any], *args: str) -> str:
+    """The instructor's command line on the hub's machine."""
+    env = child_env()
+    env["ROSBOOK_HUB_DIR"] = str(hub["state"])
+    done = subprocess.run(
+        [sys.executable, "-m", *args], env=env, cwd=ROOT, capture_output=True, text=True,
+        timeout=GRADE_S,
+    )  # fmt: skip
+    assert done.returncode == 0, done.stdout + done.stderr
+    return done.stdout
+
+
+def test_release_submit_grade_and_feedback(browser, hub, tmp_path: Path) -> None:
+    """nbgrader's flow through each student's own exchange: the last student submits
+    the lab as released (unanswered), the others answer it."""
+    url, state = hub["url"], hub["state"]
+    pages = {name: _log_in(browser, url, name, hub["passwords"][name]) for name in STUDENTS}
+    for name, page in pages.items():
+        page.wait_for_url(f"**/user/{name}/lab**", timeout=START_S * 1000)
+        page.wait_for_function("() => window.jupyterapp !== undefined", timeout=START_S * 1000)
+    assert _hub_command(hub, "autograder.hub", "release", LAB).split()[2:] == list(STUDENTS)
+    for name, page in pages.items():
+        solve = "true" if name == STUDENTS[-1] else f"cp ~/answers.ipynb ~/{LAB}/{LAB}.ipynb"
+        _terminal(
+            page,
+            f"(nbgrader fetch_assignment {LAB} && {solve} && nbgrader validate {LAB}/{LAB}.ipynb"
+            f" && nbgrader submit {LAB}) > ~/flow.txt 2>&1; echo end-of-flow >> ~/flow.txt",
+        )
+    for name in STUDENTS:
+        flow = _wait_for_text(state / "home" / name / "flow.txt", "end-of-flow")
+        assert "Submitted as:" in flow, (name, flow)
+        if name != STUDENTS[-1]:
+            assert "Success! Your notebook passes all the tests." in flow, (name, flow)
+    submissions, graded = tmp_path / "submissions", tmp_path / "graded"
+    collected = _hub_command(hub, "autograder.hub", "collect", LAB, str(submissions))
+    assert collected.split()[2:] == list(STUDENTS)
+    _hub_command(hub, "autograder", "grade", str(submissions), "--out", str(graded))
+    returned = _hub_command(hub, "autograder.hub", "feedback", LAB, str(graded))
+    assert returned.split()[2:] == list(STUDENTS)
+    for page in pages.values():
+        _terminal(
+            page, f"nbgrader fetch_feedback {LAB} > ~/fb.txt 2>&1; echo end-of-fb >> ~/fb.txt"
+        )
+    scores = {}
+    for name in STUDENTS:
+        _wait_for_text(state / "home" / name / "fb.txt", "end-of-fb")
+        pages_seen = list((state / "home" / name / LAB / "feedback").glob(f"*/{LAB}.html"))
+        assert len(pages_seen) == 1, (name, (state / "home" / name / "fb.txt").read_text())
+        own = (graded / "feedback" / name / LAB / f"{LAB}.html").read_bytes()
+        assert pages_seen[0].read_bytes() == own, name  # their own, as graded
+        scores[name] = own
+    assert scores[STUDENTS[0]] != scores[STUDENTS[-1]]
+    for page in pages.values():
+        page.context.close()
 
 
 def test_students_are_isolated_and_nothing_survives_the_hub(browser, hub) -> None:
