@@ -77,6 +77,8 @@ COURSE = str(
     .load_config()
     .CourseDirectory.course_id
 )
+#: nbgrader's instructor tools (JupyterLab plugins), off in students' servers.
+INSTRUCTOR_TOOLS = ("formgrader", "course-list", "create-assignment")
 #: A hang guard for a relay or a server to come up (a loaded machine is slow).
 START_TIMEOUT = 120.0
 
@@ -149,9 +151,18 @@ class SandboxSpawner(SimpleLocalProcessSpawner):  # type: ignore[misc]
             config.write_text(
                 f"c.CourseDirectory.course_id = {COURSE!r}\nc.Exchange.root = {EXCHANGE!r}\n"
             )
-        if os.geteuid() == 0:  # the sandbox is nobody outside (autograder.sandbox)
-            for folder in (home, config.parent, config, server_dir, *exchange.rglob("*"), exchange):
-                os.chown(folder, 65534, 65534)
+        if not self.user.admin:  # the instructor's tools are the instructor's
+            labconfig = config.parent / "labconfig"
+            labconfig.mkdir(exist_ok=True)
+            disabled = {f"@jupyter/nbgrader:{name}": True for name in INSTRUCTOR_TOOLS}
+            (labconfig / "page_config.json").write_text(
+                json.dumps({"disabledExtensions": disabled})
+            )
+        for tree in (home / ".jupyter", exchange):
+            _owned(tree)
+        _owned(server_dir)
+        if os.geteuid() == 0:
+            os.chown(home, 65534, 65534)
         env = self.get_env()
         env.update(BASE_ENV)  # the course's ROS settings (log lines on stdout, as graded)
         hub = urlparse(self.hub.api_url)
@@ -179,6 +190,14 @@ class SandboxSpawner(SimpleLocalProcessSpawner):  # type: ignore[misc]
         cmd = [
             *self.cmd,
             *self.get_args(),
+            *(
+                []
+                if self.user.admin
+                else [
+                    f"--ServerApp.jpserver_extensions=nbgrader.server_extensions.{name}=False"
+                    for name in ("formgrader", "course_list")
+                ]
+            ),
             f"--config={self.jupyter_config}",
             f"--ServerApp.sock={RUN}/jupyter.sock",
         ]

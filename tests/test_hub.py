@@ -225,6 +225,13 @@ def test_release_submit_grade_and_feedback(browser, hub, tmp_path: Path) -> None
         assert pages_seen[0].read_bytes() == own, name  # their own, as graded
         scores[name] = own
     assert scores[STUDENTS[0]] != scores[STUDENTS[-1]]
+    # the formgrader is the instructor's alone
+    for name, page in pages.items():
+        assert page.request.get(f"{url}/user/{name}/formgrader").status == 404, name
+    instructor = _log_in(browser, url, INSTRUCTOR, hub["passwords"][INSTRUCTOR])
+    instructor.wait_for_url(f"**/user/{INSTRUCTOR}/lab**", timeout=START_S * 1000)
+    assert instructor.request.get(f"{url}/user/{INSTRUCTOR}/formgrader").status == 200
+    instructor.context.close()
     for page in pages.values():
         page.context.close()
 
