@@ -42,6 +42,7 @@
 from __future__ import annotations
 
 import asyncio
+import contextlib
 import hashlib
 import hmac
 import json
@@ -114,6 +115,7 @@ class SandboxSpawner(SimpleLocalProcessSpawner):  # type: ignore[misc]
     _joined: subprocess.Popen[bytes] | None = None
     _relays: list[asyncio.AbstractServer]
     _private = ""  # the sandbox's generated files (autograder.sandbox.prepare)
+    _server_pid = 0  # the sandbox's first process, seen from the hub
 
     def _limits(self) -> Limits:
         return Limits(memory=self.memory, processes=self.processes, disk=self.disk)
@@ -137,6 +139,13 @@ class SandboxSpawner(SimpleLocalProcessSpawner):  # type: ignore[misc]
         return proc
 
     async def start(self) -> tuple[str, int]:  # type: ignore[override]
+        try:
+            return await self._start()
+        except BaseException:
+            await self.stop(now=True)  # nothing of a failed start stays behind
+            raise
+
+    async def _start(self) -> tuple[str, int]:
         home = Path(self.home_dir)
         home.mkdir(parents=True, exist_ok=True)
         run = Path(self.run_dir) / self.user.name
@@ -214,7 +223,9 @@ class SandboxSpawner(SimpleLocalProcessSpawner):  # type: ignore[misc]
         launch.env.update(
             {k: v for k, v in env.items() if k.startswith("JUPYTERHUB_") or k == "JPY_API_TOKEN"}
         )
-        self._proc, _ = await asyncio.to_thread(start, launch, stdin=subprocess.DEVNULL)
+        self._proc, self._server_pid = await asyncio.to_thread(
+            start, launch, stdin=subprocess.DEVNULL
+        )
         self.pid = self._proc.pid
         return self.ip, self.port
 
@@ -227,11 +238,11 @@ class SandboxSpawner(SimpleLocalProcessSpawner):  # type: ignore[misc]
         proc, self._proc = self._proc, None
         if proc is not None:
             if proc.poll() is None and not now:
-                proc.send_signal(signal.SIGTERM)
-            try:
-                await asyncio.wait_for(asyncio.to_thread(proc.wait), timeout=10)
-            except asyncio.TimeoutError:
-                pass
+                # the server (the sandbox's first process) shuts its kernels down
+                with contextlib.suppress(ProcessLookupError):
+                    os.kill(self._server_pid, signal.SIGTERM)
+                with contextlib.suppress(asyncio.TimeoutError):
+                    await asyncio.wait_for(asyncio.to_thread(proc.wait), timeout=10)
             if proc.poll() is None:
                 proc.kill()  # bwrap: the sandbox's PID namespace dies with it
             await asyncio.to_thread(proc.wait)
