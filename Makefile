@@ -11,7 +11,7 @@ LAB ?= lab01_nodes_topics
 SUBMISSIONS ?= submissions
 OUT ?= grading
 
-.PHONY: book test test-fast stress lab check labs grade bench lint clean
+.PHONY: book test test-fast stress lab hub check labs grade bench lint clean
 
 $(STAMP): requirements.txt pyproject.toml
 	@$(PYTHON) -c 'import platform, sys; ok = sys.platform == "linux" and platform.machine() == "x86_64" and (3, 10) <= sys.version_info[:2] <= (3, 13); ok or sys.exit("ROS 2 Jazzy wheels exist for Linux x86_64 with Python 3.10-3.13 only; this is %s %s with Python %d.%d (see README: Mac and Windows)" % (sys.platform, platform.machine(), *sys.version_info[:2]))'
@@ -44,6 +44,16 @@ LAB_DIR ?= labs
 LAB_ARGS ?=
 lab: $(STAMP)
 	$(ISOLATED) $(BIN)/jupyter lab --config=rosbook/jupyterlab_config.py $(LAB_ARGS) $(LAB_DIR)
+
+## hub: the course server: JupyterHub at HUB_URL, each student's JupyterLab sandboxed on a
+## network of its own (autograder/hub.py); its proxy comes from npm into .hub/ (not global).
+## People: `.venv/bin/python -m autograder.hub add NAME [--instructor]` prints a password
+HUB_URL ?= http://127.0.0.1:8000
+CHP := .hub/node_modules/.bin/configurable-http-proxy
+$(CHP):
+	npm install --prefix .hub --no-save --no-package-lock configurable-http-proxy@4.6.3
+hub: $(STAMP) $(CHP)
+	ROSBOOK_HUB_URL=$(HUB_URL) $(BIN)/jupyterhub -f autograder/jupyterhub_config.py
 
 ## check: a student's self-check of LAB before submitting
 check: $(STAMP)

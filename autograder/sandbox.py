@@ -367,6 +367,7 @@ def prepare(
     limits: Limits = Limits(),
     tmpfs: Sequence[str] = (),
     files: Mapping[str, str | os.PathLike[str]] | None = None,
+    binds: Mapping[str, str | os.PathLike[str]] | None = None,
 ) -> Launch:
     """The bwrap command line that runs ``cmd`` in a sandbox on ``network``.
 
@@ -374,6 +375,8 @@ def prepare(
     bound writable). ``seed``: a folder copied, without its notebooks, into the home
     (``HOME/<its name>``), where ``cmd`` starts. ``tmpfs``: extra empty writable
     folders (e.g. for sockets). ``files``: host files bound read-only at inside paths.
+    ``binds``: host folders bound writable at inside paths (a course hub student's own
+    home, over the private one).
     """
     stages: list[tuple[str, str]] = []
     private.mkdir(parents=True, exist_ok=True)
@@ -381,7 +384,7 @@ def prepare(
         os.chmod(private, 0o711)
         (private / "stage").mkdir(exist_ok=True)
 
-    def ro(source: str | os.PathLike[str], dest: str) -> list[str]:
+    def ro(source: str | os.PathLike[str], dest: str, how: str = "--ro-bind") -> list[str]:
         if _as_root():
             stage = private / "stage" / str(len(stages))
             if os.path.isdir(source):
@@ -390,7 +393,7 @@ def prepare(
                 stage.touch()
             stages.append((str(source), str(stage)))
             source = stage
-        return ["--ro-bind", str(source), dest]
+        return [how, str(source), dest]
 
     argv = [
         bwrap(),
@@ -435,6 +438,8 @@ def prepare(
         argv += ro(host, inside)
     for inside, host in (files or {}).items():
         argv += ro(host, inside)
+    for inside, host in (binds or {}).items():
+        argv += ro(host, inside, "--bind")
     for folder in tmpfs:
         argv += ["--size", str(1 << 20), "--tmpfs", folder]
     init = ["init", "--limits", json.dumps(asdict(limits))]

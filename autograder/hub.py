@@ -1,0 +1,404 @@
+"""The course server's pieces: each student's JupyterLab in a sandbox, and the roster.
+
+``make hub`` runs JupyterHub with ``autograder/jupyterhub_config.py``, which uses:
+
+- ``SandboxSpawner``: a student's single-user server runs in the grader's sandbox
+  (``autograder.sandbox``: its own user, PID, IPC and mount namespaces, the system and
+  the venv read-only, per-process memory and process limits) on a ``Network`` of its
+  own: a loopback only, so ROS traffic never crosses students, whatever their
+  ``ROS_DOMAIN_ID``. The student's home is their own folder on the host
+  (``home_dir_template``) bound at ``/home/student``; no other student's folder exists
+  in the sandbox.
+- **Crossing the network namespace.** Nothing outside reaches the sandbox's loopback
+  and the server reaches nothing outside, so both ways go through unix sockets, which
+  are files (``autograder.relay``): the server listens on ``/run/hub/jupyter.sock``
+  (a per-student host folder bound there) and a relay in the hub process gives the
+  proxy and the hub a TCP port on the host's loopback for it; the server calls the hub's
+  API at its usual address, where a relay joined to the sandbox's network
+  (``Network.join_argv``, outside the sandbox otherwise) listens and pipes to a unix
+  socket the hub process serves, out of the student's reach.
+- Stopping a server kills its sandbox (its PID namespace ends with its first process)
+  and its network; bwrap and the network holder die with the hub too
+  (``--die-with-parent``), and the joined relay ends when its standard input closes.
+- **The nbgrader exchange.** nbgrader's shared exchange folder relies on Unix users and
+  file modes to keep students apart; here every student is the same uid, so one shared
+  folder would let any student read (or overwrite) another's submission. Instead each
+  student has an exchange of their own (``exchange/NAME``, bound at nbgrader's default
+  ``/srv/nbgrader/exchange``), and only the hub's side, which sees them all, crosses
+  between them: ``release`` copies a lab into every student's ``outbound``,
+  ``collect`` copies each student's latest submission from their ``inbound`` into the
+  grader's ``SUBMISSIONS/NAME/LAB/`` under their roster name (inside, everyone is
+  "student"), and ``feedback`` puts the grader's feedback for each student into that
+  student's ``feedback`` only, named as nbgrader's ``fetch_feedback`` looks for it
+  (the hash of their submission's secret and the notebook). Students use the
+  Assignments tab (or ``nbgrader fetch_assignment/validate/submit/fetch_feedback``) as
+  on any nbgrader course; the instructor runs ``python -m autograder.hub release|collect|
+  feedback`` and ``python -m autograder grade``.
+- ``RosterAuthenticator``: each student and instructor has a password of their own
+  (``python -m autograder.hub add NAME [--instructor]`` prints it; only its scrypt hash
+  is kept); instructors are the hub's admins.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import hashlib
+import hmac
+import json
+import os
+import secrets
+import shutil
+import signal
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+from typing import Any
+from urllib.parse import urlparse, urlunparse
+
+from jupyterhub.auth import Authenticator
+from jupyterhub.spawner import SimpleLocalProcessSpawner
+from nbgrader.utils import notebook_hash
+from traitlets import Integer, Unicode
+from traitlets.config.loader import PyFileConfigLoader
+
+from autograder import relay
+from autograder.sandbox import HOME, Limits, Network, prepare, start
+from rosbook.runtime.isolation import BASE_ENV
+
+ROOT = Path(__file__).resolve().parent.parent
+#: Inside each sandbox: the folder holding the server's socket.
+RUN = "/run/hub"
+#: nbgrader's exchange inside each sandbox (its default root).
+EXCHANGE = "/srv/nbgrader/exchange"
+#: The course's id, from the course's nbgrader configuration.
+COURSE = str(
+    PyFileConfigLoader("nbgrader_config.py", path=str(ROOT / "autograder"))
+    .load_config()
+    .CourseDirectory.course_id
+)
+#: nbgrader's instructor tools (JupyterLab plugins), off in students' servers.
+INSTRUCTOR_TOOLS = ("formgrader", "course-list", "create-assignment")
+#: A hang guard for a relay or a server to come up (a loaded machine is slow).
+START_TIMEOUT = 120.0
+
+
+def state_dir() -> Path:
+    """The hub's state (roster, database, homes): ``ROSBOOK_HUB_DIR`` or ``.hub/``."""
+    return Path(os.environ.get("ROSBOOK_HUB_DIR", ROOT / ".hub")).resolve()
+
+
+def _in_netns(url: str, port: int) -> str:
+    """``url`` with its host the sandbox's loopback (where the joined relay listens)."""
+    parts = urlparse(url)
+    return urlunparse(parts._replace(netloc=f"127.0.0.1:{port}"))
+
+
+class SandboxSpawner(SimpleLocalProcessSpawner):  # type: ignore[misc]
+    """A LocalProcessSpawner whose command runs in the sandbox, on a network of its own."""
+
+    memory = Integer(Limits.memory, config=True, help="Address space of each process (bytes).")
+    processes = Integer(Limits.processes, config=True, help="Processes and threads.")
+    disk = Integer(Limits.disk, config=True, help="Size of the sandbox's /tmp (bytes).")
+    run_dir = Unicode(
+        str(ROOT / ".hub" / "run"), config=True, help="Host folder of per-student sockets."
+    )
+    jupyter_config = Unicode(
+        str(ROOT / "rosbook" / "jupyterlab_config.py"),
+        config=True,
+        help="The single-user server's config file (make lab's: terminals with ros2).",
+    )
+
+    _proc: subprocess.Popen[bytes] | None = None
+    _network: Network | None = None
+    _joined: subprocess.Popen[bytes] | None = None
+    _relays: list[asyncio.AbstractServer]
+    _private = ""  # the sandbox's generated files (autograder.sandbox.prepare)
+    _server_pid = 0  # the sandbox's first process, seen from the hub
+
+    def _limits(self) -> Limits:
+        return Limits(memory=self.memory, processes=self.processes, disk=self.disk)
+
+    async def _join_relay(self, listen: str, connect: str) -> subprocess.Popen[bytes]:
+        assert self._network is not None
+        argv = self._network.join_argv([sys.executable, "-m", "autograder.relay", listen, connect])
+        proc = subprocess.Popen(argv, stdin=subprocess.PIPE, stdout=subprocess.PIPE, cwd=ROOT)
+        assert proc.stdout is not None
+        try:
+            line = await asyncio.wait_for(
+                asyncio.to_thread(proc.stdout.readline), timeout=START_TIMEOUT
+            )
+        except asyncio.TimeoutError as exc:
+            proc.kill()
+            raise RuntimeError(
+                f"relay in the sandbox's network: timeout after {START_TIMEOUT} s"
+            ) from exc
+        if not line.startswith(b"ready"):
+            raise RuntimeError(f"relay in the sandbox's network failed (exit {proc.poll()})")
+        return proc
+
+    async def start(self) -> tuple[str, int]:  # type: ignore[override]
+        try:
+            return await self._start()
+        except BaseException:
+            await self.stop(now=True)  # nothing of a failed start stays behind
+            raise
+
+    async def _start(self) -> tuple[str, int]:
+        home = Path(self.home_dir)
+        home.mkdir(parents=True, exist_ok=True)
+        run = Path(self.run_dir) / self.user.name
+        server_dir = run / "server"
+        server_dir.mkdir(parents=True, exist_ok=True)
+        for stale in (server_dir / "jupyter.sock", run / "hub.sock"):
+            stale.unlink(missing_ok=True)
+        exchange = _exchange(self.user.name)
+        config = home / ".jupyter" / "nbgrader_config.py"
+        if not config.exists():
+            config.parent.mkdir(parents=True, exist_ok=True)
+            config.write_text(
+                f"c.CourseDirectory.course_id = {COURSE!r}\nc.Exchange.root = {EXCHANGE!r}\n"
+            )
+        if not self.user.admin:  # the instructor's tools are the instructor's
+            labconfig = config.parent / "labconfig"
+            labconfig.mkdir(exist_ok=True)
+            disabled = {f"@jupyter/nbgrader:{name}": True for name in INSTRUCTOR_TOOLS}
+            (labconfig / "page_config.json").write_text(
+                json.dumps({"disabledExtensions": disabled})
+            )
+        for tree in (home / ".jupyter", exchange):
+            _owned(tree)
+        _owned(server_dir)
+        if os.geteuid() == 0:
+            os.chown(home, 65534, 65534)
+        env = self.get_env()
+        env.update(BASE_ENV)  # the course's ROS settings (log lines on stdout, as graded)
+        hub = urlparse(self.hub.api_url)
+        hub_port = hub.port or 80
+        self._relays = []
+        self._network = Network()
+        # the server -> the hub's API: joined relay (in the sandbox's network) -> unix
+        # socket -> the hub process -> the hub's API on the host
+        self._relays.append(
+            await relay.serve(f"unix:{run / 'hub.sock'}", f"tcp:{hub.hostname}:{hub_port}")
+        )
+        self._joined = await self._join_relay(
+            f"tcp:127.0.0.1:{hub_port}", f"unix:{run / 'hub.sock'}"
+        )
+        for key in ("JUPYTERHUB_API_URL", "JUPYTERHUB_ACTIVITY_URL"):
+            env[key] = _in_netns(env[key], hub_port)
+        # the proxy and the hub -> the server: a host port -> the server's unix socket
+        to_server = await relay.serve("tcp:127.0.0.1:0", f"unix:{server_dir / 'jupyter.sock'}")
+        self._relays.append(to_server)
+        self.port = relay.port(to_server)
+        self.ip = "127.0.0.1"
+        # jupyter-server refuses a unix socket with a port other than its default one
+        prefix = urlparse(env["JUPYTERHUB_SERVICE_URL"]).path
+        env["JUPYTERHUB_SERVICE_URL"] = f"http://127.0.0.1:8888{prefix}"
+        cmd = [
+            *self.cmd,
+            *self.get_args(),
+            *(
+                []
+                if self.user.admin
+                else [
+                    f"--ServerApp.jpserver_extensions=nbgrader.server_extensions.{name}=False"
+                    for name in ("formgrader", "course_list")
+                ]
+            ),
+            f"--config={self.jupyter_config}",
+            f"--ServerApp.sock={RUN}/jupyter.sock",
+        ]
+        self._private = tempfile.mkdtemp(prefix=f"rosbook-hub-{self.user.name}-")
+        launch = prepare(
+            cmd,
+            network=self._network,
+            # where nobody (the sandbox, when the hub is root) can traverse, whatever run is
+            private=Path(self._private),
+            env=env,
+            limits=self._limits(),
+            binds={HOME: home, RUN: server_dir, EXCHANGE: exchange},
+        )
+        launch.env.update(
+            {k: v for k, v in env.items() if k.startswith("JUPYTERHUB_") or k == "JPY_API_TOKEN"}
+        )
+        self._proc, self._server_pid = await asyncio.to_thread(
+            start, launch, stdin=subprocess.DEVNULL
+        )
+        self.pid = self._proc.pid
+        return self.ip, self.port
+
+    async def poll(self) -> int | None:  # type: ignore[override]
+        if self._proc is None:
+            return 0
+        return self._proc.poll()
+
+    async def stop(self, now: bool = False) -> None:  # type: ignore[override]
+        proc, self._proc = self._proc, None
+        if proc is not None:
+            if proc.poll() is None and not now:
+                # the server (the sandbox's first process) shuts its kernels down
+                with contextlib.suppress(ProcessLookupError):
+                    os.kill(self._server_pid, signal.SIGTERM)
+                with contextlib.suppress(asyncio.TimeoutError):
+                    await asyncio.wait_for(asyncio.to_thread(proc.wait), timeout=10)
+            if proc.poll() is None:
+                proc.kill()  # bwrap: the sandbox's PID namespace dies with it
+            await asyncio.to_thread(proc.wait)
+        for server in getattr(self, "_relays", []):
+            server.close()
+        self._relays = []
+        if self._joined is not None:
+            assert self._joined.stdin is not None
+            self._joined.stdin.close()  # the relay ends at EOF
+            await asyncio.to_thread(self._joined.wait)
+            self._joined = None
+        if self._network is not None:
+            self._network.close()
+            self._network = None
+        if self._private:
+            shutil.rmtree(self._private, ignore_errors=True)
+            self._private = ""
+
+    def get_state(self) -> dict[str, Any]:
+        return {}  # nothing of a student survives the hub: no pid to find again
+
+    def load_state(self, state: dict[str, Any]) -> None:
+        pass
+
+
+def _exchange(name: str) -> Path:
+    """``name``'s own nbgrader exchange (created with the course's three folders)."""
+    root = state_dir() / "exchange" / name
+    for folder in ("outbound", "inbound", "feedback"):
+        (root / COURSE / folder).mkdir(parents=True, exist_ok=True)
+    return root
+
+
+def _students() -> list[str]:
+    roster = state_dir() / "roster.json"
+    people = json.loads(roster.read_text()) if roster.exists() else {}
+    return sorted(name for name, person in people.items() if not person.get("instructor"))
+
+
+def _owned(path: Path) -> None:
+    """Give ``path`` (a tree) to the sandboxes' outside user (nobody when root)."""
+    if os.geteuid() == 0:
+        for item in (path, *path.rglob("*")):
+            os.chown(item, 65534, 65534)
+
+
+def release(lab: str, labs: Path = ROOT / "labs") -> list[str]:
+    """Copy ``labs/LAB`` into every student's outbound; the students."""
+    students = _students()
+    for name in students:
+        target = _exchange(name) / COURSE / "outbound" / lab
+        shutil.rmtree(target, ignore_errors=True)
+        shutil.copytree(labs / lab, target)
+        _owned(_exchange(name))
+    return students
+
+
+def _latest(name: str, lab: str) -> Path | None:
+    inbound = _exchange(name) / COURSE / "inbound"
+    found = sorted(inbound.glob(f"*+{lab}+*"), key=lambda p: p.name.rsplit("+", 1)[1])
+    return found[-1] if found else None
+
+
+def collect(lab: str, submissions: Path) -> list[str]:
+    """Each student's latest submission of ``lab`` into ``submissions/NAME/LAB/``."""
+    collected = []
+    for name in _students():
+        latest = _latest(name, lab)
+        if latest is None:
+            continue
+        target = submissions / name / lab
+        shutil.rmtree(target, ignore_errors=True)
+        shutil.copytree(latest, target)
+        collected.append(name)
+    return collected
+
+
+def feedback(lab: str, graded: Path) -> list[str]:
+    """The grader's feedback (``graded/feedback/NAME/LAB/*.html``) into each student's
+    own exchange, where ``nbgrader fetch_feedback`` finds it for their latest submission."""
+    returned = []
+    for name in _students():
+        latest = _latest(name, lab)
+        pages = sorted((graded / "feedback" / name / lab).glob("*.html"))
+        if latest is None or not (latest / "submission_secret.txt").exists():
+            continue
+        secret = (latest / "submission_secret.txt").read_text()
+        for page in pages:
+            digest = notebook_hash(secret=secret, notebook_id=page.stem)
+            shutil.copyfile(page, _exchange(name) / COURSE / "feedback" / f"{digest}.html")
+        _owned(_exchange(name))
+        returned += [name] if pages else []
+    return returned
+
+
+def _hash(password: str, salt: bytes) -> str:
+    return hashlib.scrypt(password.encode(), salt=salt, n=1 << 14, r=8, p=1).hex()
+
+
+class RosterAuthenticator(Authenticator):  # type: ignore[misc]
+    """A password of each person's own, from a roster file of scrypt hashes."""
+
+    roster = Unicode(str(ROOT / ".hub" / "roster.json"), config=True, help="The roster file.")
+
+    def _people(self) -> dict[str, dict[str, Any]]:
+        path = Path(self.roster)
+        return json.loads(path.read_text()) if path.exists() else {}
+
+    def check_allowed(self, username: str, authentication: Any = None) -> bool:
+        return username in self._people()
+
+    def is_admin(self, handler: Any, authentication: dict[str, Any]) -> bool:
+        return bool(self._people().get(authentication["name"], {}).get("instructor"))
+
+    async def authenticate(self, handler: Any, data: dict[str, str]) -> str | None:
+        person = self._people().get(data.get("username", ""))
+        if person is None:
+            return None
+        given = _hash(data.get("password", ""), bytes.fromhex(person["salt"]))
+        return data["username"] if hmac.compare_digest(given, person["hash"]) else None
+
+
+def add(roster: Path, name: str, instructor: bool = False) -> str:
+    """Add (or reset) ``name`` in ``roster``; the new password (shown once)."""
+    people = json.loads(roster.read_text()) if roster.exists() else {}
+    password, salt = secrets.token_urlsafe(12), secrets.token_bytes(16)
+    people[name] = {"salt": salt.hex(), "hash": _hash(password, salt), "instructor": instructor}
+    roster.parent.mkdir(parents=True, exist_ok=True)
+    roster.write_text(json.dumps(people, indent=1))
+    os.chmod(roster, 0o600)
+    return password
+
+
+if __name__ == "__main__":
+    import argparse
+
+    parser = argparse.ArgumentParser(prog="python -m autograder.hub")
+    sub = parser.add_subparsers(dest="command", required=True)
+    adding = sub.add_parser("add", help="add a student (or --instructor); prints the password")
+    adding.add_argument("names", nargs="+")
+    adding.add_argument("--instructor", action="store_true")
+    releasing = sub.add_parser("release", help="copy labs/LAB to every student")
+    releasing.add_argument("lab")
+    collecting = sub.add_parser("collect", help="latest submissions into SUBMISSIONS/NAME/LAB")
+    collecting.add_argument("lab")
+    collecting.add_argument("submissions", type=Path)
+    returning = sub.add_parser("feedback", help="GRADED/feedback/NAME/LAB to each student")
+    returning.add_argument("lab")
+    returning.add_argument("graded", type=Path)
+    args = parser.parse_args()
+    if args.command == "add":
+        for name in args.names:
+            print(f"{name} {add(state_dir() / 'roster.json', name, args.instructor)}")
+    elif args.command == "release":
+        print("released to", " ".join(release(args.lab)))
+    elif args.command == "collect":
+        print("collected from", " ".join(collect(args.lab, args.submissions)))
+    else:
+        print("feedback to", " ".join(feedback(args.lab, args.graded)))

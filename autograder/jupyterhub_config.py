@@ -1,0 +1,58 @@
+"""``make hub``'s JupyterHub settings (``jupyterhub -f autograder/jupyterhub_config.py``).
+
+Every student's JupyterLab runs sandboxed on a network of its own
+(``autograder.hub.SandboxSpawner``); people log in with their own password from the
+roster (``autograder.hub.RosterAuthenticator``; instructors are admins). Settings from
+the environment:
+
+- ``ROSBOOK_HUB_URL``: where students connect (default ``http://127.0.0.1:8000``;
+  put a TLS-terminating web server in front of it for a real course).
+- ``ROSBOOK_HUB_LAB_ARGS``: extra options of every student's server (tests:
+  ``--LabApp.expose_app_in_browser=True``).
+- ``ROSBOOK_HUB_DIR``: the hub's state: roster, database, cookie secret, each student's
+  home (``home/NAME``) and sockets (default ``.hub/`` in the project).
+"""
+
+import os
+import shlex
+import socket
+
+from autograder.hub import ROOT, RosterAuthenticator, SandboxSpawner, state_dir
+
+c = get_config()  # type: ignore[name-defined]  # noqa: F821  (traitlets config file)
+
+state = state_dir()
+state.mkdir(parents=True, exist_ok=True)
+
+
+def _free_port() -> int:
+    with socket.socket() as sock:
+        sock.bind(("127.0.0.1", 0))
+        return int(sock.getsockname()[1])
+
+
+c.JupyterHub.bind_url = os.environ.get("ROSBOOK_HUB_URL", "http://127.0.0.1:8000")
+# The hub's API and the proxy's, on the host's loopback, on ports of their own
+c.JupyterHub.hub_ip = "127.0.0.1"
+c.JupyterHub.hub_port = _free_port()
+c.ConfigurableHTTPProxy.api_url = f"http://127.0.0.1:{_free_port()}"
+c.ConfigurableHTTPProxy.command = [
+    str(ROOT / ".hub" / "node_modules" / ".bin" / "configurable-http-proxy")
+]
+c.JupyterHub.db_url = f"sqlite:///{state / 'jupyterhub.sqlite'}"
+c.JupyterHub.cookie_secret_file = str(state / "jupyterhub_cookie_secret")
+c.JupyterHub.pid_file = str(state / "jupyterhub.pid")
+c.JupyterHub.cleanup_servers = True  # stopping the hub stops every student's server
+c.JupyterHub.cleanup_proxy = True
+
+c.JupyterHub.authenticator_class = RosterAuthenticator
+c.Authenticator.any_allow_config = True  # the roster decides (check_allowed)
+c.RosterAuthenticator.roster = str(state / "roster.json")
+
+c.JupyterHub.spawner_class = SandboxSpawner
+c.SandboxSpawner.home_dir_template = str(state / "home" / "{username}")
+c.SandboxSpawner.run_dir = str(state / "run")
+c.Spawner.default_url = "/lab"
+c.Spawner.args = shlex.split(os.environ.get("ROSBOOK_HUB_LAB_ARGS", ""))
+c.Spawner.http_timeout = 180  # a loaded machine starts JupyterLab slowly
+c.Spawner.start_timeout = 180

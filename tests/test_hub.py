@@ -1,0 +1,276 @@
+"""The course server (``make hub``): students in a real browser, each isolated.
+
+``make hub`` serves on a free loopback port with a state folder of the test's own. In
+Chromium (Playwright), students log in at once with their own passwords, open lab 1
+(answered, in their own home), run its cells and a cell that starts a node named after
+them, and list the ROS graph with ``ros2 node list`` from a JupyterLab terminal. All are
+in the same ROS domain: each must see only their own nodes (their server runs on a
+network of its own). Stopping the hub must leave no process of any student.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import socket
+import subprocess
+import sys
+import time
+import urllib.request
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import nbformat
+import pytest
+
+from autograder.config import ROOT
+from autograder.hub import add
+from rosbook.runtime.isolation import child_env
+from tests.labtools import answered
+from tests.test_jupyterlab import CELL_S, LAB, START_S, _index, _run_cell
+
+STUDENTS = ("ada", "ben", "cyd")
+INSTRUCTOR = "prof"
+STOP_S = 120  # a hang guard for the hub's stop
+GRADE_S = 900  # a hang guard for the instructor's commands (grading three on a busy machine)
+
+
+def _free_port() -> int:
+    with socket.socket() as sock:
+        sock.bind(("127.0.0.1", 0))
+        return int(sock.getsockname()[1])
+
+
+def _descendants(root: int) -> dict[int, str]:
+    """Every process under ``root``: pid -> its start time (tells a reused pid apart)."""
+    children: dict[int, list[int]] = {}
+    starts: dict[int, str] = {}
+    for entry in Path("/proc").iterdir():
+        if not entry.name.isdigit():
+            continue
+        try:
+            stat = (entry / "stat").read_text()
+        except OSError:
+            continue
+        fields = stat.rsplit(")", 1)[1].split()
+        children.setdefault(int(fields[1]), []).append(int(entry.name))
+        starts[int(entry.name)] = fields[19]
+    found: dict[int, str] = {}
+    todo = [root]
+    while todo:
+        for child in children.get(todo.pop(), []):
+            found[child] = starts[child]
+            todo.append(child)
+    return found
+
+
+def _alive(processes: dict[int, str]) -> list[str]:
+    alive = []
+    for pid, start in processes.items():
+        try:
+            stat = Path(f"/proc/{pid}/stat").read_text()
+            cmdline = Path(f"/proc/{pid}/cmdline").read_bytes().replace(b"\0", b" ")
+        except OSError:
+            continue
+        fields = stat.rsplit(")", 1)[1].split()
+        if fields[19] == start and fields[0] != "Z":  # a zombie runs nothing: it is dead
+            alive.append(f"{pid} {cmdline.decode(errors='replace')[:160]}")
+    return alive
+
+
+@pytest.fixture(scope="module")
+def hub(tmp_path_factory: pytest.TempPathFactory) -> Iterator[dict[str, Any]]:
+    """``make hub`` with three students and an instructor; yields its URL, state folder,
+    process and passwords."""
+    state = tmp_path_factory.mktemp("hub")
+    passwords = {name: add(state / "roster.json", name) for name in STUDENTS}
+    passwords[INSTRUCTOR] = add(state / "roster.json", INSTRUCTOR, instructor=True)
+    for name in STUDENTS:
+        home = state / "home" / name
+        home.mkdir(parents=True)
+        notebook = answered(LAB)
+        notebook.cells.append(
+            nbformat.v4.new_code_cell(f"import rclpy\nmarker = rclpy.create_node('only_{name}')")
+        )
+        nbformat.write(notebook, home / f"{LAB}.ipynb")
+        nbformat.write(answered(LAB), home / "answers.ipynb")  # what they will submit
+    port = _free_port()
+    env = child_env()
+    env.update(
+        ROSBOOK_HUB_DIR=str(state),
+        ROSBOOK_HUB_LAB_ARGS="--LabApp.expose_app_in_browser=True",
+        ROS_DOMAIN_ID="0",  # every student in one domain: only their networks part them
+    )
+    log = (state / "hub.log").open("w")
+    server = subprocess.Popen(
+        ["make", "--no-print-directory", "-C", str(ROOT), "hub", f"HUB_URL=http://127.0.0.1:{port}"],
+        stdout=log, stderr=subprocess.STDOUT, env=env, start_new_session=True,
+    )  # fmt: skip
+    url = f"http://127.0.0.1:{port}"
+    try:
+        deadline = time.monotonic() + START_S
+        while True:
+            try:
+                with urllib.request.urlopen(f"{url}/hub/api", timeout=10) as response:
+                    json.loads(response.read())
+                break
+            except OSError:
+                if server.poll() is not None or time.monotonic() > deadline:
+                    pytest.fail(
+                        "make hub did not serve (or timeout):\n" + Path(log.name).read_text()
+                    )
+                time.sleep(0.2)  # polling for the hub to answer, not a wait for time
+        yield {"url": url, "state": state, "server": server, "passwords": passwords}
+    finally:
+        if server.poll() is None:
+            os.killpg(server.pid, signal.SIGINT)
+            try:
+                server.wait(timeout=STOP_S)
+            except subprocess.TimeoutExpired:
+                os.killpg(server.pid, signal.SIGKILL)
+                server.wait()
+        log.close()
+
+
+def _log_in(browser: Any, url: str, name: str, password: str) -> Any:
+    page = browser.new_context().new_page()
+    page.goto(f"{url}/hub/login", timeout=START_S * 1000)
+    page.fill("#username_input", name)
+    page.fill("#password_input", password)
+    page.click("#login_submit")
+    return page
+
+
+def _open_lab(page: Any, url: str, name: str) -> None:
+    page.wait_for_url(f"**/user/{name}/lab**", timeout=START_S * 1000)
+    page.goto(f"{url}/user/{name}/lab/tree/{LAB}.ipynb", timeout=START_S * 1000)
+    page.wait_for_function(
+        "() => { const p = window.jupyterapp && window.jupyterapp.shell.currentWidget;"
+        " const k = p && p.sessionContext && p.sessionContext.session &&"
+        " p.sessionContext.session.kernel;"
+        " if (k && k.status === 'idle') { window.labNotebook = p; return true; } }",
+        timeout=START_S * 1000,
+    )
+
+
+def _terminal(page: Any, command: str) -> None:
+    page.evaluate(
+        "async () => { await window.jupyterapp.commands.execute('terminal:create-new'); }"
+    )
+    terminal = page.locator(".jp-Terminal .xterm-helper-textarea").first
+    terminal.wait_for(state="attached", timeout=START_S * 1000)
+    terminal.focus()
+    page.keyboard.type(command + "\n")
+
+
+def _wait_for_text(path: Path, end: str) -> str:
+    deadline = time.monotonic() + CELL_S
+    while end not in (path.read_text() if path.exists() else ""):
+        assert time.monotonic() < deadline, f"timeout: {path} never ended with {end}"
+        time.sleep(0.2)  # polling for the file the terminal writes
+    return path.read_text()
+
+
+def _hub_command(hub: dict[str, Any], *args: str) -> str:
+    """The instructor's command line on the hub's machine."""
+    env = child_env()
+    env["ROSBOOK_HUB_DIR"] = str(hub["state"])
+    done = subprocess.run(
+        [sys.executable, "-m", *args], env=env, cwd=ROOT, capture_output=True, text=True,
+        timeout=GRADE_S,
+    )  # fmt: skip
+    assert done.returncode == 0, done.stdout + done.stderr
+    return done.stdout
+
+
+def test_release_submit_grade_and_feedback(browser, hub, tmp_path: Path) -> None:
+    """nbgrader's flow through each student's own exchange: the last student submits
+    the lab as released (unanswered), the others answer it."""
+    url, state = hub["url"], hub["state"]
+    pages = {name: _log_in(browser, url, name, hub["passwords"][name]) for name in STUDENTS}
+    for name, page in pages.items():
+        page.wait_for_url(f"**/user/{name}/lab**", timeout=START_S * 1000)
+        page.wait_for_function("() => window.jupyterapp !== undefined", timeout=START_S * 1000)
+    assert _hub_command(hub, "autograder.hub", "release", LAB).split()[2:] == list(STUDENTS)
+    for name, page in pages.items():
+        solve = "true" if name == STUDENTS[-1] else f"cp ~/answers.ipynb ~/{LAB}/{LAB}.ipynb"
+        _terminal(
+            page,
+            f"(nbgrader fetch_assignment {LAB} && {solve} && nbgrader validate {LAB}/{LAB}.ipynb"
+            f" && nbgrader submit {LAB}) > ~/flow.txt 2>&1; echo end-of-flow >> ~/flow.txt",
+        )
+    for name in STUDENTS:
+        flow = _wait_for_text(state / "home" / name / "flow.txt", "end-of-flow")
+        assert "Submitted as:" in flow, (name, flow)
+        if name != STUDENTS[-1]:
+            assert "Success! Your notebook passes all the tests." in flow, (name, flow)
+    submissions, graded = tmp_path / "submissions", tmp_path / "graded"
+    collected = _hub_command(hub, "autograder.hub", "collect", LAB, str(submissions))
+    assert collected.split()[2:] == list(STUDENTS)
+    _hub_command(hub, "autograder", "grade", str(submissions), "--out", str(graded))
+    returned = _hub_command(hub, "autograder.hub", "feedback", LAB, str(graded))
+    assert returned.split()[2:] == list(STUDENTS)
+    for page in pages.values():
+        _terminal(
+            page, f"nbgrader fetch_feedback {LAB} > ~/fb.txt 2>&1; echo end-of-fb >> ~/fb.txt"
+        )
+    scores = {}
+    for name in STUDENTS:
+        _wait_for_text(state / "home" / name / "fb.txt", "end-of-fb")
+        pages_seen = list((state / "home" / name / LAB / "feedback").glob(f"*/{LAB}.html"))
+        assert len(pages_seen) == 1, (name, (state / "home" / name / "fb.txt").read_text())
+        own = (graded / "feedback" / name / LAB / f"{LAB}.html").read_bytes()
+        assert pages_seen[0].read_bytes() == own, name  # their own, as graded
+        scores[name] = own
+    assert scores[STUDENTS[0]] != scores[STUDENTS[-1]]
+    # the formgrader is the instructor's alone
+    for name, page in pages.items():
+        assert page.request.get(f"{url}/user/{name}/formgrader").status == 404, name
+    instructor = _log_in(browser, url, INSTRUCTOR, hub["passwords"][INSTRUCTOR])
+    instructor.wait_for_url(f"**/user/{INSTRUCTOR}/lab**", timeout=START_S * 1000)
+    assert instructor.request.get(f"{url}/user/{INSTRUCTOR}/formgrader").status == 200
+    instructor.context.close()
+    for page in pages.values():
+        page.context.close()
+
+
+def test_students_are_isolated_and_nothing_survives_the_hub(browser, hub) -> None:
+    url, state = hub["url"], hub["state"]
+    # everyone logs in at once: their servers start together
+    pages = {name: _log_in(browser, url, name, hub["passwords"][name]) for name in STUDENTS}
+    for name, page in pages.items():
+        _open_lab(page, url, name)
+    for name, page in pages.items():
+        _run_cell(page, _index(page, "from rosbook.labs import lab01 as checks"))
+        _run_cell(page, _index(page, "class CounterPublisher(Node)"))
+        try_it = _run_cell(page, _index(page, "ros.spin_for(1.6)"))
+        assert "Publishing: 0" in try_it and "Publishing: 2" in try_it, (name, try_it)
+        assert "Error" not in _run_cell(page, _index(page, f"only_{name}")), name
+    # every student's graph, from their own terminal, while all their nodes live
+    for page in pages.values():
+        _terminal(page, "ros2 node list > ~/nodes.txt 2>&1; echo end-of-list >> ~/nodes.txt")
+    for name in STUDENTS:
+        home = state / "home" / name
+        nodes = _wait_for_text(home / "nodes.txt", "end-of-list").split()
+        assert f"/only_{name}" in nodes, (name, nodes)
+        assert not [n for n in nodes if n.startswith("/only_") and n != f"/only_{name}"], nodes
+        assert nodes.count("/counter_publisher") == 1, (name, nodes)
+    # a student's files are theirs alone: no other home exists in the sandbox
+    page = pages[STUDENTS[0]]
+    _terminal(page, f"ls -a /home {state} > ~/seen.txt 2>&1; echo end-of-ls >> ~/seen.txt")
+    seen = _wait_for_text(state / "home" / STUDENTS[0] / "seen.txt", "end-of-ls")
+    assert "student" in seen and "No such file" in seen, seen
+    assert not any(other in seen for other in STUDENTS[1:]), seen
+
+    # the hub's stop ends every process of every student
+    processes = _descendants(hub["server"].pid)
+    kernels = [p for p in _alive(processes) if "ipykernel" in p]
+    assert len(kernels) >= len(STUDENTS), kernels  # the walk sees the sandboxes' insides
+    for page in pages.values():
+        page.context.close()
+    # as an instructor's Ctrl-C, to the hub alone (not its process group)
+    os.kill(int((state / "jupyterhub.pid").read_text()), signal.SIGINT)
+    hub["server"].wait(timeout=STOP_S)
+    assert _alive(processes) == []
