@@ -7,6 +7,8 @@ echo server and ros2param's parameter node. ``tests/test_cli_upstream.py`` start
 once and runs the ``ros2`` verbs against it.
 """
 
+import time
+
 import rclpy
 from rclpy.action import ActionServer
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
@@ -17,6 +19,9 @@ from std_msgs.msg import String
 from test_msgs.action import Fibonacci
 from test_msgs.msg import Arrays, Defaults, Strings
 from test_msgs.srv import BasicTypes
+
+#: The topic an action server publishes the feedback of its ``fibonacci`` action on.
+FEEDBACK_TOPIC = "/fibonacci/_action/feedback"
 
 
 class Talker(Node):
@@ -65,6 +70,12 @@ class ComplexNode(Node):
             self.action_server = ActionServer(self, Fibonacci, "fibonacci", self.execute)
 
     def execute(self, goal_handle):
+        # Upstream's server publishes at once and its test retries when the client's
+        # feedback subscription was not matched yet; this one waits until it is
+        # discovered (the limit only guards against a hang).
+        deadline = time.monotonic() + 30.0
+        while self.count_subscribers(FEEDBACK_TOPIC) == 0 and time.monotonic() < deadline:
+            time.sleep(0.01)
         feedback = Fibonacci.Feedback()
         feedback.sequence = [0, 1]
         for i in range(1, goal_handle.request.order):

@@ -517,11 +517,17 @@ def test_action_send_goal() -> None:
 
 
 def test_action_send_goal_with_feedback() -> None:
-    # ros2action/test/test_cli.py::test_send_fibonacci_goal_with_feedback (every feedback)
+    # ros2action/test/test_cli.py::test_send_fibonacci_goal_with_feedback: not strict, as
+    # upstream (the last feedback may come after the result: they travel apart)
     run = ros2(
         "action", "send_goal", "-f", "/fibonacci", "test_msgs/action/Fibonacci", "{order: 5}"
     )
-    assert matches(lines(run), fibonacci_send_goal_output(order=5, with_feedback=4)), run.out
+    expected = iter(fibonacci_send_goal_output(order=5, with_feedback=1))
+    wanted = next(expected)
+    for line in lines(run):
+        if wanted is not None and matches([line], [wanted]):
+            wanted = next(expected, None)
+    assert wanted is None, (wanted, run.out)
 
 
 def test_action_send_goal_with_a_type_that_is_not_one() -> None:
