@@ -508,17 +508,11 @@ def matches(out: list[str], expected: list[str | re.Pattern]) -> bool:
     )
 
 
-def test_action_send_goal() -> None:
-    # ros2action/test/test_cli.py::test_send_fibonacci_goal
-    out = lines(
-        ros2("action", "send_goal", "/fibonacci", "test_msgs/action/Fibonacci", "{order: 5}")
-    )
-    assert matches(out, fibonacci_send_goal_output(order=5)), out
-
-
 def test_action_send_goal_with_feedback() -> None:
     # ros2action/test/test_cli.py::test_send_fibonacci_goal_with_feedback: not strict, as
-    # upstream (the last feedback may come after the result: they travel apart)
+    # upstream (the last feedback may come after the result: they travel apart). It runs
+    # before the other goals: the fixture's server waits for a feedback subscription, and
+    # one of an earlier client may still be on the graph.
     run = ros2(
         "action", "send_goal", "-f", "/fibonacci", "test_msgs/action/Fibonacci", "{order: 5}"
     )
@@ -528,6 +522,14 @@ def test_action_send_goal_with_feedback() -> None:
         if wanted is not None and matches([line], [wanted]):
             wanted = next(expected, None)
     assert wanted is None, (wanted, run.out)
+
+
+def test_action_send_goal() -> None:
+    # ros2action/test/test_cli.py::test_send_fibonacci_goal
+    out = lines(
+        ros2("action", "send_goal", "/fibonacci", "test_msgs/action/Fibonacci", "{order: 5}")
+    )
+    assert matches(out, fibonacci_send_goal_output(order=5)), out
 
 
 def test_action_send_goal_with_a_type_that_is_not_one() -> None:
