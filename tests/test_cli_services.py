@@ -66,7 +66,7 @@ def test_service_type_names_the_type_or_fails_in_one_line(servers, capsys) -> No
     assert ros2(capsys, "service", "type", "/switch") == (0, "std_srvs/srv/SetBool\n", "")
     status, out, err = ros2(capsys, "service", "type", "/no_such_service")
     assert (status, out) == (1, "")
-    assert err == "ros2 service type: no service '/no_such_service' is running\n"
+    assert err == ""  # as upstream: nothing, exit code 1
 
 
 def test_service_call_sends_the_yaml_request_and_prints_the_response(servers, capsys) -> None:
@@ -85,12 +85,11 @@ def test_service_call_sends_the_yaml_request_and_prints_the_response(servers, ca
     [
         (
             ["/switch", "std_srvs/srv/NoSuch"],
-            "ros2 service call: unknown interface 'std_srvs/srv/NoSuch': "
-            "'std_srvs' has no srv 'NoSuch'\n",
+            "The passed service type is invalid\n",
         ),
         (
             ["/switch", "std_srvs/srv/SetBool", "{value: 1}"],
-            "ros2 service call: SetBool_Request has no field 'value' (its fields: data)\n",
+            "Failed to populate field: SetBool_Request has no field 'value' (its fields: data)\n",
         ),
         (
             ["/nobody", "std_srvs/srv/Trigger", "", "--timeout", "0.5"],
@@ -115,13 +114,17 @@ def test_action_list_and_info(servers, capsys) -> None:
         out == "Action: /countdown\nAction clients: 0\nAction servers: 1\n    /countdown_server\n"
     )
     status, out, err = ros2(capsys, "action", "info", "/nothing")
-    assert (status, out, err) == (1, "", "ros2 action info: no action '/nothing' is running\n")
+    assert (status, out, err) == (
+        0,
+        "Action: /nothing\nAction clients: 0\nAction servers: 0\n",
+        "",
+    )
 
 
 def test_param_list_get_and_set(servers, capsys) -> None:
     status, out, _ = ros2(capsys, "param", "list", "/clock_server")
     assert status == 0
-    assert out == ("/clock_server:\n  rate_hz\n  start_type_description_service\n  use_sim_time\n")
+    assert out == "  rate_hz\n  start_type_description_service\n  use_sim_time\n"
     assert ros2(capsys, "param", "get", "/clock_server", "rate_hz") == (
         0,
         "Double value is: 2.0\n",
@@ -143,14 +146,12 @@ def test_param_list_without_a_node_lists_every_node(servers, capsys) -> None:
 
 def test_param_errors_name_the_reason(servers, capsys) -> None:
     status, out, err = ros2(capsys, "param", "set", "/clock_server", "rate_hz", "-1.0")
-    assert (status, out, err) == (1, "", "Setting parameter failed: rate_hz must be > 0\n")
+    # upstream reports the refusal on stderr and exits 0
+    assert (status, out, err) == (0, "", "Setting parameter failed: rate_hz must be > 0\n")
     status, _, err = ros2(capsys, "param", "get", "/clock_server", "rate")
-    assert (status, err) == (
-        1,
-        "ros2 param get: node '/clock_server' has no parameter 'rate' (is it declared?)\n",
-    )
+    assert (status, err) == (1, "Parameter not set\n")
     status, _, err = ros2(capsys, "param", "get", "/nobody", "rate_hz")
-    assert (status, err) == (1, "ros2 param get: no node '/nobody' answers\n")
+    assert (status, err) == (1, "Node not found\n")
 
 
 def test_action_send_goal_prints_goal_id_feedback_result_and_status(servers, capsys) -> None:
@@ -180,15 +181,16 @@ def test_action_send_goal_prints_goal_id_feedback_result_and_status(servers, cap
     [
         (
             ["/countdown", "test_msgs/action/Countdown", "{order: 1}"],
-            "ros2 action send_goal: unknown interface 'test_msgs/action/Countdown': "
-            "'test_msgs' has no action 'Countdown'\n",
+            "The passed action type is invalid\n",
         ),
         (
             ["/countdown", "test_msgs/action/Fibonacci", "{start: 3}"],
-            "ros2 action send_goal: Fibonacci_Goal has no field 'start' (its fields: order)\n",
+            "Failed to populate message fields: "
+            "Fibonacci_Goal has no field 'start' (its fields: order)\n",
         ),
         (
-            ["/nobody", "test_msgs/action/Fibonacci", "{order: 1}"],
+            # send_goal waits for a server as long as asked (upstream: for ever)
+            ["/nobody", "test_msgs/action/Fibonacci", "{order: 1}", "--timeout", "2"],
             "ros2 action send_goal: no server for '/nobody (test_msgs/action/Fibonacci)' "
             "appeared within 2 s\n",
         ),

@@ -128,22 +128,19 @@ def test_ros2_run_starts_the_entry_point_after_sourcing(built: Workspace) -> Non
 
 
 def test_ros2_run_names_the_missing_package_or_executable(built: Workspace) -> None:
+    # upstream's words (ros2run/command/run.py), which scripts and students grep for
     env = built.environ()
     missing_exe = subprocess.run(
         [*ROS2, "run", "demo_pkg", "talker"], env=env, capture_output=True, text=True
     )
-    assert missing_exe.returncode == 1
-    assert "No executable 'talker' found in package 'demo_pkg'" in missing_exe.stderr
-    assert "it has: hello" in missing_exe.stderr and "console_scripts" in missing_exe.stderr
+    assert (missing_exe.returncode, missing_exe.stderr) == (1, "No executable found\n")
     unsourced = subprocess.run(
         [*ROS2, "run", "demo_pkg", "hello"],
         env={k: v for k, v in env.items() if k != "AMENT_PREFIX_PATH"},
         capture_output=True,
         text=True,
     )
-    assert unsourced.returncode == 1
-    assert "Package 'demo_pkg' not found" in unsourced.stderr
-    assert "install/setup.bash" in unsourced.stderr
+    assert (unsourced.returncode, unsourced.stderr) == (1, "Package 'demo_pkg' not found\n")
 
 
 def test_symlink_install_runs_edited_code_without_rebuilding(built: Workspace) -> None:

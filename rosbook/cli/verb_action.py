@@ -15,6 +15,7 @@ from rclpy.action.graph import (
 from rclpy.node import Node
 
 from rosbook.cli import cli_node
+from rosbook.cli.reporting import fail
 from rosbook.runtime import graph
 from rosbook.runtime.actions import run_goal
 from rosbook.runtime.interfaces import InterfaceError, from_yaml, message_class, to_yaml
@@ -54,10 +55,11 @@ def list_actions(args: argparse.Namespace) -> int:
 
 
 def _users(node: Node, action: str, lookup: Lookup) -> list[tuple[str, list[str]]]:
-    """(full name, types) of the visible nodes that ``lookup`` finds on ``action``."""
+    """(full name, types) of the nodes that ``lookup`` finds on ``action``: hidden ones
+    too, as upstream, but never the CLI's own node."""
     found = []
     for name, namespace in node.get_node_names_and_namespaces():
-        if name.startswith("_"):
+        if namespace.rstrip("/") + "/" + name == node.get_fully_qualified_name():
             continue
         for action_name, types in lookup(node, name, namespace):
             if action_name == action:
@@ -75,12 +77,10 @@ def action_info(args: argparse.Namespace) -> int:
                 _users(node, action, get_action_server_names_and_types_by_node),
             )
 
-        # The action's name and the nodes behind it are discovered separately.
+        # The action's name and the nodes behind it are discovered separately. As
+        # upstream, an action nobody serves or uses is shown with no clients, no servers.
         if graph.lookup(lambda _: any(users()), node):
             graph.settle(node)
-        if action not in dict(get_action_names_and_types(node)):
-            print(f"ros2 action info: no action '{action}' is running", file=sys.stderr)
-            return 1
         clients, servers = users()
     print(f"Action: {action}")
     for title, users in (("Action clients", clients), ("Action servers", servers)):
@@ -94,10 +94,12 @@ def send_goal(args: argparse.Namespace) -> int:
     """Print as the real ``ros2 action send_goal`` does: goal, ID, feedback, result, status."""
     try:
         action_type = message_class(args.action_type)
+    except InterfaceError:
+        return fail("The passed action type is invalid")
+    try:
         goal = from_yaml(action_type.Goal, args.goal)
     except InterfaceError as exc:
-        print(f"ros2 action send_goal: {exc}", file=sys.stderr)
-        return 1
+        return fail(f"Failed to populate message fields: {exc}")
 
     early: list[object] | None = []  # feedback that overtook the goal's acceptance
 

@@ -1,10 +1,10 @@
-"""``ros2 interface show TYPE`` and ``ros2 interface package PACKAGE``."""
+"""``ros2 interface show TYPE`` and ``ros2 interface package PACKAGE``, worded as upstream's."""
 
 from __future__ import annotations
 
 import argparse
 
-from rosbook.cli.reporting import reports_errors
+from rosbook.cli.reporting import fail, reports_errors
 from rosbook.runtime import interfaces
 
 
@@ -23,11 +23,21 @@ def add_parser(verbs: argparse._SubParsersAction) -> None:  # type: ignore[type-
 
 @reports_errors
 def show(args: argparse.Namespace) -> int:
-    print(interfaces.show(args.type))
+    package, kind, name = interfaces.split_type(args.type)  # or a one-line error
+    prefix = interfaces.package_prefix(package)
+    if prefix is None:
+        return fail(f"Unknown package '{package}'")
+    try:
+        print(interfaces.show(args.type))
+    except interfaces.InterfaceError:
+        idl = prefix / "share" / package / kind / f"{name}.idl"
+        return fail(f"Could not find the interface '{idl}'")
     return 0
 
 
 @reports_errors
 def package(args: argparse.Namespace) -> int:
+    if interfaces.package_prefix(args.package_name) is None:
+        return fail(f"Unknown package '{args.package_name}'")
     print(*interfaces.interfaces(args.package_name), sep="\n")
     return 0

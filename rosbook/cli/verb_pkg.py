@@ -8,9 +8,12 @@ venv, which plays ``/opt/ros/jazzy`` here).
 from __future__ import annotations
 
 import argparse
-import sys
 
+from rosbook.cli.reporting import fail
 from rosbook.launch import workspace
+
+#: What upstream's ``ros2 pkg`` verbs answer for a package not in the ament index.
+PACKAGE_NOT_FOUND = "Package not found"
 
 
 def add_parser(verbs: argparse._SubParsersAction) -> None:
@@ -57,8 +60,7 @@ def create_main(args: argparse.Namespace) -> int:
             maintainer_email=args.maintainer_email,
         )
     except (ValueError, FileExistsError) as error:
-        print(error, file=sys.stderr)
-        return 1
+        return fail(str(error))
     return 0
 
 
@@ -74,9 +76,8 @@ def executables_main(args: argparse.Namespace) -> int:
         try:
             found = workspace.executables(package)
             prefix = workspace.package_prefix(package)
-        except LookupError as error:
-            print(error, file=sys.stderr)
-            return 1
+        except LookupError:
+            return fail(PACKAGE_NOT_FOUND)
         for exe in found:
             print(prefix / "lib" / package / exe if args.full_path else f"{package} {exe}")
     return 0
@@ -85,7 +86,6 @@ def executables_main(args: argparse.Namespace) -> int:
 def prefix_main(args: argparse.Namespace) -> int:
     try:
         print(workspace.package_prefix(args.package_name))
-    except LookupError as error:
-        print(error, file=sys.stderr)
-        return 1
+    except LookupError:
+        return fail(PACKAGE_NOT_FOUND)
     return 0

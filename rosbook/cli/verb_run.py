@@ -11,9 +11,9 @@ from __future__ import annotations
 import argparse
 import signal
 import subprocess
-import sys
 
-from rosbook.launch.workspace import executable_path
+from rosbook.cli.reporting import fail
+from rosbook.launch.workspace import ExecutableNotFoundError, executable_path
 
 
 def add_parser(verbs: argparse._SubParsersAction) -> None:
@@ -28,9 +28,10 @@ def add_parser(verbs: argparse._SubParsersAction) -> None:
 def run(args: argparse.Namespace) -> int:
     try:
         path = executable_path(args.package_name, args.executable_name)
-    except LookupError as error:
-        print(error, file=sys.stderr)
-        return 1
+    except ExecutableNotFoundError:
+        return fail("No executable found")  # upstream's words, as the others below
+    except LookupError:
+        return fail(f"Package '{args.package_name}' not found")
     prefix = args.prefix.split() if args.prefix else []
     return run_executable([*prefix, str(path), *args.argv])
 

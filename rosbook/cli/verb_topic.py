@@ -48,12 +48,19 @@ def add_parser(verbs: argparse._SubParsersAction) -> None:  # type: ignore[type-
     p.set_defaults(func=hz)
 
 
-def find_publisher(node: Node, topic: str) -> None:
+def find_publisher(node: Node, topic: str) -> bool:
     """Wait until a publisher of ``topic`` is discovered, or the graph settled without
-    one (then ``graph.echo``/``HzMonitor`` say what is missing)."""
+    one; whether the topic is on the graph at all. When it is not, this prints the
+    warning upstream's ``ros2 topic echo`` prints (on stdout); a topic with
+    subscriptions only is left to ``graph.echo``/``HzMonitor``, which say so."""
     name = "/" + topic.lstrip("/")
     if graph.lookup(lambda g: g.count_publishers(name) > 0, node):
         graph.settle(node)  # all of its publishers, for a QoS that matches them all
+        return True
+    if name in dict(node.get_topic_names_and_types()):
+        return True
+    print(f"WARNING: topic [{name}] does not appear to be published yet", flush=True)
+    return False
 
 
 @reports_errors
@@ -71,9 +78,10 @@ def list_topics(args: argparse.Namespace) -> int:
 def info(args: argparse.Namespace) -> int:
     topic = "/" + args.topic_name.lstrip("/")
     with cli_node() as node:
-        if graph.lookup(lambda g: topic in dict(g.get_topic_names_and_types()), node):
-            graph.settle(node)  # every endpoint of it, each with its node's name
-        print(graph.topic_info(topic, node).format(verbose=args.verbose))  # or GraphError
+        if not graph.lookup(lambda g: topic in dict(g.get_topic_names_and_types()), node):
+            return fail(f"Unknown topic '{topic}'")  # upstream's words
+        graph.settle(node)  # every endpoint of it, each with its node's name
+        print(graph.topic_info(topic, node).format(verbose=args.verbose))
     return 0
 
 
@@ -86,7 +94,8 @@ def echo(args: argparse.Namespace) -> int:
         print(to_yaml(msg), "---", sep="\n", flush=True)
 
     with cli_node() as node:
-        find_publisher(node, args.topic_name)
+        if not find_publisher(node, args.topic_name):
+            return fail("Could not determine the type for the passed topic")
         got = graph.echo(args.topic_name, count, node, timeout=timeout, on_message=show)
     if len(got) < count:
         topic = "/" + args.topic_name.lstrip("/")
@@ -98,14 +107,19 @@ def echo(args: argparse.Namespace) -> int:
 def hz(args: argparse.Namespace) -> int:
     duration = math.inf if args.duration is None else args.duration
     with cli_node() as node:
-        find_publisher(node, args.topic_name)
+        if not find_publisher(node, args.topic_name):
+            return fail("Could not determine the type for the passed topic")
         monitor = graph.HzMonitor(args.topic_name, node, window=args.window)
         start = time.monotonic()
+        printed = None  # the newest stamp of the last rate printed
         try:
             while (left := duration - (time.monotonic() - start)) > 0:
                 graph.wait_for(lambda _: False, node, timeout=min(1.0, left))
                 rate = monitor.rate()
-                print(rate.format() if rate else "no new messages", flush=True)
+                # as upstream: nothing until there is a rate, nothing without new messages
+                if rate is not None and monitor.times[-1] != printed:
+                    printed = monitor.times[-1]
+                    print(rate.format(), flush=True)
         finally:
             monitor.close()
     if monitor.rate() is None:

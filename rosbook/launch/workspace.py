@@ -33,6 +33,8 @@ from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 
+from rosbook.launch.licenses import LICENSES
+
 #: The underlay every workspace here builds on: the venv's own ament index.
 BASE_PREFIX = Path(sys.prefix)
 
@@ -269,8 +271,12 @@ def create_package(
     email = maintainer_email or default_email
     deps = list(dependencies)
     root = Path(destination) / name
+    shown = os.path.join(destination, name)  # upstream prints the paths as joined
     if root.exists():
-        raise FileExistsError(f"Aborted since the package folder '{root}' already exists")
+        raise FileExistsError(
+            f"\nAborted!\nThe directory already exists: {shown}\nEither remove the "
+            "directory or choose a different destination directory or package name"
+        )
 
     say("going to create a new package")
     for label, value in [
@@ -288,19 +294,25 @@ def create_package(
     if node_name:
         say(f"node_name: {node_name}")
 
-    def write(relative: str, text: str) -> None:
-        path = root / relative
-        path.parent.mkdir(parents=True, exist_ok=True)
-        path.write_text(text)
-        say(f"creating ./{name}/{relative}")
+    def folder(relative: str) -> None:
+        (root / relative).mkdir(parents=True, exist_ok=True)
+        say(f"creating folder {os.path.join(shown, relative)}".rstrip("/"))
 
-    say(f"creating folder ./{name}")
-    root.mkdir(parents=True)
+    def write(relative: str, text: str) -> None:
+        (root / relative).write_text(text)
+        say(f"creating {os.path.join(shown, relative)}")
+
+    # in upstream's order (ros2pkg.api.create), each line as upstream prints it
+    folder("")
     write("package.xml", _package_xml(name, version, description, maintainer, email, license, deps))
-    write(f"{name}/__init__.py", "")
+    say("creating source folder")
+    folder(name)
     write("setup.py", _setup_py(name, version, description, maintainer, email, license, node_name))
     write("setup.cfg", _setup_cfg(name))
+    folder("resource")
     write(f"resource/{name}", "")
+    write(f"{name}/__init__.py", "")
+    folder("test")
     for filename, text in _TEST_FILES.items():
         write(f"test/{filename}", text)
     if node_name:
@@ -308,6 +320,14 @@ def create_package(
             f"{name}/{node_name}.py",
             f"def main():\n    print('Hi from {name}.')\n\n\nif __name__ == '__main__':\n"
             "    main()\n",
+        )
+    if license in LICENSES:
+        (root / "LICENSE").write_text(LICENSES[license])
+    else:
+        say(
+            f"\n[WARNING]: Unknown license '{license}'.  This has been set in the package.xml, "
+            "but no LICENSE file has been created.\nIt is recommended to use one of the ament "
+            "license identifiers:\n" + "\n".join(LICENSES)
         )
     return root
 

@@ -60,6 +60,12 @@ def _index(package: str) -> tuple[Path, list[str]] | None:
     return None
 
 
+def package_prefix(package: str) -> Path | None:
+    """The install prefix that holds interface package ``package``, or None."""
+    found = _index(package)
+    return None if found is None else found[0]
+
+
 def packages() -> list[str]:
     """Every installed interface package, sorted."""
     names: set[str] = set()
@@ -192,7 +198,13 @@ def fields(type_name: str) -> dict[str, str]:
 
 
 def to_plain(msg: Any) -> Any:
-    """``msg`` as nested dicts, lists and scalars, in field order."""
+    """``msg`` as nested dicts, lists and scalars, in field order.
+
+    A ``byte`` (``bytes`` in Python) becomes the text of its characters, as upstream's
+    ``rosidl_runtime_py.message_to_yaml`` writes it: ``byte_value: '2'``, not binary.
+    """
+    if isinstance(msg, bytes):
+        return "".join(chr(c) for c in msg)
     if hasattr(msg, "get_fields_and_field_types"):
         return {name: to_plain(getattr(msg, name)) for name in msg.get_fields_and_field_types()}
     if isinstance(msg, (list, tuple)) or type(msg).__name__ in ("ndarray", "array"):

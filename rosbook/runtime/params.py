@@ -31,16 +31,23 @@ def list_parameters(node: Node, target: str, timeout: float = 2.0) -> list[str]:
     return sorted(response.result.names)
 
 
+def parameter_value(node: Node, target: str, name: str, timeout: float = 2.0) -> Any:
+    """``target``'s answer for parameter ``name``: an ``rcl_interfaces/msg/ParameterValue``
+    (of type ``PARAMETER_NOT_SET`` for a declared parameter without a value), or None
+    when the node has no such parameter."""
+    request = GetParameters.Request(names=[name])
+    response = call(
+        node, GetParameters, _service(target, "get_parameters"), request, timeout=timeout
+    )
+    return response.values[0] if response.values else None
+
+
 def get_parameter(node: Node, target: str, name: str, timeout: float = 2.0) -> Any:
     """The value of ``target``'s parameter ``name`` as a Python value.
 
     Raises ``ParameterError`` when the node has no such parameter.
     """
-    request = GetParameters.Request(names=[name])
-    response = call(
-        node, GetParameters, _service(target, "get_parameters"), request, timeout=timeout
-    )
-    value = response.values[0] if response.values else None
+    value = parameter_value(node, target, name, timeout)
     if value is None or value.type == ParameterType.PARAMETER_NOT_SET:
         raise ParameterError(f"node '{target}' has no parameter '{name}' (is it declared?)")
     return parameter_value_to_python(value)
