@@ -32,7 +32,7 @@ GRAPH_TIMEOUT_S = 20.0
 
 
 @contextmanager
-def cli_node(*, settle: bool = False) -> Iterator[Node]:
+def cli_node(*, settle: bool = False, name: str | None = None) -> Iterator[Node]:
     """A short-lived, hidden node in a context of its own.
 
     The real ``ros2`` CLI keeps a daemon that knows the graph; this one starts cold, so
@@ -41,12 +41,12 @@ def cli_node(*, settle: bool = False) -> Iterator[Node]:
     (listings of the whole graph) the node first waits until discovery has settled and
     at least one participant announcement period passed (``rosbook.runtime.graph.settle``).
     Its name starts with an underscore, like the real CLI's ``_ros2cli_*`` nodes, so
-    graph listings leave it out by default.
+    graph listings leave it out by default; ``name`` names it otherwise (``topic pub -n``).
     """
     started = time.monotonic()
     context = Context()
     rclpy.init(context=context, signal_handler_options=SignalHandlerOptions.NO)
-    node = Node(f"_ros2cli_{os.getpid()}", context=context, start_parameter_services=False)
+    node = Node(name or f"_ros2cli_{os.getpid()}", context=context, start_parameter_services=False)
     graph.discovering_since(node, started)
     try:
         if settle:

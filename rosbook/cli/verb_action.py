@@ -1,4 +1,5 @@
-"""``ros2 action list [-t]``, ``ros2 action info ACTION`` and ``ros2 action send_goal``."""
+"""``ros2 action list [-t]``, ``ros2 action info ACTION``, ``ros2 action type ACTION`` and
+``ros2 action send_goal``."""
 
 from __future__ import annotations
 
@@ -44,6 +45,7 @@ def add_parser(verbs: argparse._SubParsersAction) -> None:
         "--timeout", type=float, default=math.inf, help="give up after S seconds (not in ros2)"
     )
     goal.set_defaults(func=send_goal)
+    add_type_parser(commands)
 
 
 def list_actions(args: argparse.Namespace) -> int:
@@ -151,3 +153,20 @@ def send_goal(args: argparse.Namespace) -> int:
     print(f"Result:\n    {to_yaml(run.result)}\n")
     print(f"Goal finished with status: {run.status_name}")
     return 0
+
+
+def add_type_parser(commands: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
+    kind = commands.add_parser("type", help="Print a action's type")
+    kind.add_argument("action_name", help="Name of the ROS action (e.g. '/fibonacci')")
+    kind.set_defaults(func=action_type)
+
+
+def action_type(args: argparse.Namespace) -> int:
+    """Each type of ``ACTION``, one a line; exit 1 and nothing printed if it is unknown
+    (as upstream)."""
+    with cli_node() as node:
+        graph.lookup(lambda g: args.action_name in dict(get_action_names_and_types(g)), node)
+        types = dict(get_action_names_and_types(node)).get(args.action_name)
+    for type_name in types or []:
+        print(type_name)
+    return 0 if types else 1

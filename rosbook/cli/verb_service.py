@@ -1,21 +1,27 @@
-"""``ros2 service list [-t]``, ``ros2 service type SERVICE``, ``ros2 service call``."""
+"""``ros2 service list [-t]``, ``ros2 service type SERVICE``, ``ros2 service call``,
+``ros2 service echo SERVICE``, ``ros2 service info SERVICE``, ``ros2 service find TYPE``."""
 
 from __future__ import annotations
 
 import argparse
+import math
 import sys
+from typing import Any
 
+import yaml
 from rclpy.node import Node
+from rclpy.qos import qos_profile_services_default
+from service_msgs.msg import ServiceEventInfo
 
 from rosbook.cli import cli_node
 from rosbook.cli.reporting import fail
 from rosbook.runtime import graph
-from rosbook.runtime.interfaces import InterfaceError, from_yaml, message_class
+from rosbook.runtime.interfaces import InterfaceError, from_yaml, message_class, to_plain
 from rosbook.runtime.services import ServiceCallError, call
 
 
 def add_parser(verbs: argparse._SubParsersAction) -> None:
-    parser = verbs.add_parser("service", help="list, inspect and call services")
+    parser = verbs.add_parser("service", help="list, inspect, call and echo services")
     commands = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     listing = commands.add_parser("list", help="the services of the running nodes")
     listing.add_argument("-t", "--show-types", action="store_true", help="show each type")
@@ -33,6 +39,7 @@ def add_parser(verbs: argparse._SubParsersAction) -> None:
     caller.add_argument("values", nargs="?", default="", help="request as YAML: '{data: true}'")
     caller.add_argument("--timeout", type=float, default=5.0, help="seconds to wait (default 5)")
     caller.set_defaults(func=call_service)
+    add_introspection_parsers(commands)
 
 
 def services(node: Node, *, include_hidden: bool) -> dict[str, list[str]]:
@@ -89,4 +96,110 @@ def call_service(args: argparse.Namespace) -> int:
             print(f"ros2 service call: {exc}", file=sys.stderr)
             return 1
     print(f"response:\n{response!r}\n")
+    return 0
+
+
+# -- echo, info, find (as ros2service's) ---------------------------------------------
+def add_introspection_parsers(commands: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
+    echo = commands.add_parser("echo", help="Echo a service (its introspection events)")
+    echo.add_argument("service_name", help="Name of the ROS service to echo (e.g. '/add_two_ints')")
+    echo.add_argument("service_type", nargs="?", help="Type of the ROS service")
+    echo.add_argument("--flow-style", action="store_true", help="Print collections in flow style")
+    echo.add_argument(
+        "-n", "--max-count", type=int, default=None, help="exit after N events (not in ros2)"
+    )
+    echo.set_defaults(func=service_echo)
+    info = commands.add_parser("info", help="Print information about a service")
+    info.add_argument("service_name", help="Name of the ROS service (e.g. '/add_two_ints')")
+    info.add_argument(
+        "--include-hidden-services", action="store_true", help="Consider hidden services as well"
+    )
+    info.set_defaults(func=service_info)
+    find = commands.add_parser("find", help="Output a list of available services of a given type")
+    find.add_argument("service_type", help="e.g. 'rcl_interfaces/srv/ListParameters'")
+    find.add_argument(
+        "-c", "--count-services", action="store_true", help="Only display the number found"
+    )
+    find.add_argument(
+        "--include-hidden-services", action="store_true", help="Consider hidden services as well"
+    )
+    find.set_defaults(func=service_find)
+
+
+def _event_names() -> dict[int, str]:
+    """``ServiceEventInfo``'s event numbers by their constants' names."""
+    return {
+        getattr(ServiceEventInfo, name): name
+        for name in dir(ServiceEventInfo)
+        if name.isupper() and isinstance(getattr(ServiceEventInfo, name), int)
+    }
+
+
+def service_echo(args: argparse.Namespace) -> int:
+    """Print the events a service (or its clients) publish on ``SERVICE/_service_event``
+    when introspection is enabled there (``configure_introspection``), as upstream."""
+    name = "/" + args.service_name.lstrip("/")
+    events = f"{name}/_service_event"
+    count = math.inf if args.max_count is None else args.max_count
+    names = _event_names()
+    printed = 0
+
+    def show(event: Any) -> None:
+        nonlocal printed
+        plain = to_plain(event)
+        plain["info"]["event_type"] = names.get(event.info.event_type, event.info.event_type)
+        text = yaml.safe_dump(
+            plain, default_flow_style=args.flow_style, sort_keys=False, width=sys.maxsize
+        )
+        print(text + "---", flush=True)
+        printed += 1
+
+    with cli_node() as node:
+        if args.service_type is None:
+            graph.lookup(lambda g: name in dict(g.get_service_names_and_types()), node)
+            types = dict(node.get_service_names_and_types()).get(name)
+            if not types:
+                print("Could not load the type for the passed service", file=sys.stderr)
+                return 1
+            type_name = types[0]
+        else:
+            type_name = args.service_type
+        try:
+            srv_type = message_class(type_name)
+        except InterfaceError:
+            print(f"The service type '{type_name}' is invalid", file=sys.stderr)
+            return 1
+        subscription = node.create_subscription(
+            srv_type.Event, events, show, qos_profile_services_default
+        )
+        if not graph.lookup(lambda _: subscription.get_publisher_count() > 0, node):
+            print(
+                f"No publishers on topic '{events}'; "
+                "is service introspection on the client or server enabled?",
+                flush=True,
+            )
+        graph.wait_for(lambda _: printed >= count, node, timeout=math.inf)
+    return 0
+
+
+def service_info(args: argparse.Namespace) -> int:
+    name = args.service_name
+    with cli_node() as node:
+        if graph.lookup(lambda g: name in dict(g.get_service_names_and_types()), node):
+            graph.settle(node)  # every server and client of it
+        types = services(node, include_hidden=args.include_hidden_services).get(name)
+        if types is None:
+            print(f"Unknown service '{name}'", file=sys.stderr)
+            return 1
+        print(f"Type: {types[0] if len(types) == 1 else types}")
+        print(f"Clients count: {node.count_clients(name)}")
+        print(f"Services count: {node.count_services(name)}")
+    return 0
+
+
+def service_find(args: argparse.Namespace) -> int:
+    with cli_node(settle=True) as node:
+        found_all = services(node, include_hidden=args.include_hidden_services)
+    found = [name for name, types in found_all.items() if args.service_type in types]
+    print(*([len(found)] if args.count_services else found), sep="\n")
     return 0
