@@ -9,6 +9,7 @@ import sys
 from collections.abc import Iterator
 
 import pytest
+from rclpy.node import Node
 
 from rosbook import ros
 from rosbook.cli import main
@@ -26,12 +27,17 @@ def servers() -> Iterator[subprocess.Popen]:
         stderr=subprocess.PIPE,
         text=True,
     )
-    # The commands report the graph as it is: let the servers be up first (a limit
-    # that only guards a hang).
+    # The commands report the graph as it is: let the servers be up first, and the
+    # nodes of earlier tests in this domain be gone (a limit that only guards a hang).
+    ros.reset()
     both = {"/clock_server", "/countdown_server"}
-    assert graph.wait_for(lambda g: both <= set(graph.node_names(g)), timeout=60.0), (
-        "rosbook.demos.nodes did not come up"
-    )
+
+    def others(g: Node) -> set[str]:
+        return set(graph.node_names(g)) - both - {g.get_fully_qualified_name()}
+
+    assert graph.wait_for(
+        lambda g: both <= set(graph.node_names(g)) and not others(g), timeout=60.0
+    ), f"rosbook.demos.nodes did not come up, or other nodes stayed: {others(graph.observer())}"
     ros.reset()
     yield process
     process.send_signal(signal.SIGINT)
