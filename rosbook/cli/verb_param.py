@@ -164,8 +164,7 @@ def dump_params(args: argparse.Namespace) -> int:
     target = absolute_name(args.node_name)
     with cli_node() as node:
         if not _serves_parameters(node, target):
-            print("Node not found", file=sys.stderr)
-            return 1
+            return fail("Node not found")
         try:
             names = list_parameters(node, target, GRAPH_TIMEOUT_S)
             request = GetParameters.Request(names=names)
@@ -185,8 +184,7 @@ def load_params(args: argparse.Namespace) -> int:
     target = absolute_name(args.node_name)
     with cli_node() as node:
         if not _serves_parameters(node, target):
-            print("Node not found", file=sys.stderr)
-            return 1
+            return fail("Node not found")
         try:
             parameters = list(
                 parameter_dict_from_yaml_file(
