@@ -53,6 +53,8 @@ import signal
 import subprocess
 import sys
 import tempfile
+import time
+import urllib.request
 from pathlib import Path
 from typing import Any
 from urllib.parse import urlparse, urlunparse
@@ -363,6 +365,54 @@ class RosterAuthenticator(Authenticator):  # type: ignore[misc]
             return None
         given = _hash(data.get("password", ""), bytes.fromhex(person["salt"]))
         return data["username"] if hmac.compare_digest(given, person["hash"]) else None
+
+
+def serve(url: str, env: dict[str, str], log: Any) -> subprocess.Popen[bytes]:
+    """``make hub HUB_URL=url`` (in a session of its own: stop it with ``os.killpg``),
+    once it answers on its API; ``RuntimeError`` if it exits first, ``TimeoutError`` if
+    it never answers (its output is in ``log``)."""
+    server = subprocess.Popen(
+        ["make", "--no-print-directory", "-C", str(ROOT), "hub", f"HUB_URL={url}"],
+        stdout=log, stderr=subprocess.STDOUT, env=env, start_new_session=True,
+    )  # fmt: skip
+    deadline = time.monotonic() + START_TIMEOUT * 5  # make may first install the proxy
+    while True:
+        try:
+            with urllib.request.urlopen(f"{url}/hub/api", timeout=10) as response:
+                json.loads(response.read())
+            return server
+        except OSError:
+            if server.poll() is not None:
+                code = server.returncode
+                raise RuntimeError(f"make hub exited ({code}) before serving") from None
+            if time.monotonic() > deadline:
+                os.killpg(server.pid, signal.SIGKILL)
+                server.wait()
+                raise TimeoutError(f"timeout: make hub did not serve at {url}") from None
+            time.sleep(0.2)  # polling for the hub to answer, not a wait for time
+
+
+def process_tree(root: int) -> dict[int, str]:
+    """Every process under ``root``: pid -> its start time (tells a reused pid apart)."""
+    children: dict[int, list[int]] = {}
+    starts: dict[int, str] = {}
+    for entry in Path("/proc").iterdir():
+        if not entry.name.isdigit():
+            continue
+        try:
+            stat = (entry / "stat").read_text()
+        except OSError:
+            continue
+        fields = stat.rsplit(")", 1)[1].split()
+        children.setdefault(int(fields[1]), []).append(int(entry.name))
+        starts[int(entry.name)] = fields[19]
+    found: dict[int, str] = {}
+    todo = [root]
+    while todo:
+        for child in children.get(todo.pop(), []):
+            found[child] = starts[child]
+            todo.append(child)
+    return found
 
 
 def add(roster: Path, name: str, instructor: bool = False) -> str:

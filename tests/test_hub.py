@@ -10,14 +10,12 @@ network of its own). Stopping the hub must leave no process of any student.
 
 from __future__ import annotations
 
-import json
 import os
 import signal
 import socket
 import subprocess
 import sys
 import time
-import urllib.request
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -26,7 +24,7 @@ import nbformat
 import pytest
 
 from autograder.config import ROOT
-from autograder.hub import add
+from autograder.hub import add, process_tree, serve
 from rosbook.runtime.isolation import child_env
 from tests.labtools import answered
 from tests.test_jupyterlab import CELL_S, LAB, START_S, _index, _run_cell
@@ -41,29 +39,6 @@ def _free_port() -> int:
     with socket.socket() as sock:
         sock.bind(("127.0.0.1", 0))
         return int(sock.getsockname()[1])
-
-
-def _descendants(root: int) -> dict[int, str]:
-    """Every process under ``root``: pid -> its start time (tells a reused pid apart)."""
-    children: dict[int, list[int]] = {}
-    starts: dict[int, str] = {}
-    for entry in Path("/proc").iterdir():
-        if not entry.name.isdigit():
-            continue
-        try:
-            stat = (entry / "stat").read_text()
-        except OSError:
-            continue
-        fields = stat.rsplit(")", 1)[1].split()
-        children.setdefault(int(fields[1]), []).append(int(entry.name))
-        starts[int(entry.name)] = fields[19]
-    found: dict[int, str] = {}
-    todo = [root]
-    while todo:
-        for child in children.get(todo.pop(), []):
-            found[child] = starts[child]
-            todo.append(child)
-    return found
 
 
 def _alive(processes: dict[int, str]) -> list[str]:
@@ -104,24 +79,13 @@ def hub(tmp_path_factory: pytest.TempPathFactory) -> Iterator[dict[str, Any]]:
         ROS_DOMAIN_ID="0",  # every student in one domain: only their networks part them
     )
     log = (state / "hub.log").open("w")
-    server = subprocess.Popen(
-        ["make", "--no-print-directory", "-C", str(ROOT), "hub", f"HUB_URL=http://127.0.0.1:{port}"],
-        stdout=log, stderr=subprocess.STDOUT, env=env, start_new_session=True,
-    )  # fmt: skip
     url = f"http://127.0.0.1:{port}"
     try:
-        deadline = time.monotonic() + START_S
-        while True:
-            try:
-                with urllib.request.urlopen(f"{url}/hub/api", timeout=10) as response:
-                    json.loads(response.read())
-                break
-            except OSError:
-                if server.poll() is not None or time.monotonic() > deadline:
-                    pytest.fail(
-                        "make hub did not serve (or timeout):\n" + Path(log.name).read_text()
-                    )
-                time.sleep(0.2)  # polling for the hub to answer, not a wait for time
+        server = serve(url, env, log)
+    except (RuntimeError, TimeoutError) as exc:
+        log.close()
+        pytest.fail(f"{exc}:\n" + Path(log.name).read_text())
+    try:
         yield {"url": url, "state": state, "server": server, "passwords": passwords}
     finally:
         if server.poll() is None:
@@ -265,7 +229,7 @@ def test_students_are_isolated_and_nothing_survives_the_hub(browser, hub) -> Non
     assert not any(other in seen for other in STUDENTS[1:]), seen
 
     # the hub's stop ends every process of every student
-    processes = _descendants(hub["server"].pid)
+    processes = process_tree(hub["server"].pid)
     kernels = [p for p in _alive(processes) if "ipykernel" in p]
     assert len(kernels) >= len(STUDENTS), kernels  # the walk sees the sandboxes' insides
     for page in pages.values():
