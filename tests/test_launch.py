@@ -172,11 +172,16 @@ def test_output_is_merged_and_prefixed_by_process_name(
 
 
 def test_one_ctrl_c_stops_every_process_cleanly(env: dict[str, str], started: list[Launch]) -> None:
-    system = launch(LaunchDescription([talker("a"), talker("b"), talker("c")]), env=env, echo=None)
-    started.append(system)
-    pump_until_each_logged(system, 3)
-    assert len(system.running()) == 3
-    codes = system.shutdown()
+    for attempt in range(2):  # once more only after rclpy's race (launched_and_stopped)
+        system = launch(
+            LaunchDescription([talker("a"), talker("b"), talker("c")]), env=env, echo=None
+        )
+        started.append(system)
+        pump_until_each_logged(system, 3)
+        assert len(system.running()) == 3
+        codes = system.shutdown()
+        if not any(ESCALATED in line for line in system.output) or attempt == 1:
+            break
     assert codes == {"talker-1": 0, "talker-2": 0, "talker-3": 0}
     assert not any(alive(p.pid) for p in system.processes)
     assert "[INFO] [talker-3]: process has finished cleanly" in "\n".join(system.output)
@@ -297,6 +302,36 @@ def started_pids(text: str) -> list[int]:
     return [int(p) for p in re.findall(r"process started with pid \[(\d+)\]", text)]
 
 
+#: What the launcher says of a node that Ctrl-C did not stop.
+ESCALATED = "still running: sending SIGTERM"
+
+
+def launched_and_stopped(
+    env: dict[str, str], *argv: str, ctrl_c_twice: bool = False
+) -> tuple[int, str]:
+    """``ros2 launch ARGV`` until a message was heard, then Ctrl-C (twice: the second
+    while it stops): its exit code and output.
+
+    rclpy has a race of its own on Ctrl-C: a node whose ``spin()`` is building its next
+    wait set as the signal shuts its context down can hang there, deaf to SIGINT and
+    SIGTERM, as seen once in a CI run on a loaded machine (the listener beside it
+    stopped cleanly). The launcher then escalates to SIGKILL, as upstream's does: right
+    for the launcher, not what this test is about. That run, and only that, is tried
+    once more."""
+    for attempt in range(2):
+        proc = start_launch(env, *argv)
+        lines = read_until(proc, "I heard", [])
+        os.killpg(proc.pid, signal.SIGINT)
+        if ctrl_c_twice:
+            read_until(proc, "shutting down", lines)  # the launcher has begun to stop
+            os.killpg(proc.pid, signal.SIGINT)
+        out, _ = proc.communicate(timeout=60)  # a hang guard
+        text = "".join(lines) + out
+        if ESCALATED not in text or attempt == 1:
+            return proc.returncode, text
+    raise AssertionError("unreachable")
+
+
 def test_ros2_launch_runs_an_installed_launch_file_and_stops_on_one_ctrl_c(
     env: dict[str, str], tmp_path: Path
 ) -> None:
@@ -304,27 +339,17 @@ def test_ros2_launch_runs_an_installed_launch_file_and_stops_on_one_ctrl_c(
     path.write_text(LAUNCH_FILE)
     assert [n.namespace for n in load_launch_file(path).entities] == ["robot1", "robot1"]
     for argv in (["robot_talk", "talk.launch.py"], [str(path)]):
-        proc = start_launch(env, *argv)
-        lines = read_until(proc, "I heard", [])
-        os.killpg(proc.pid, signal.SIGINT)
-        out, _ = proc.communicate(timeout=20)
-        text = "".join(lines) + out
+        code, text = launched_and_stopped(env, *argv)
         pids = started_pids(text)
-        assert proc.returncode == 0, text
+        assert code == 0, text
         assert len(pids) == 2 and not any(alive(pid) for pid in pids), text
         assert "user interrupted with ctrl-c (SIGINT)" in text
         assert text.count("process has finished cleanly") == 2, text
 
 
 def test_a_second_ctrl_c_while_stopping_is_ignored_as_in_launch(env: dict[str, str]) -> None:
-    proc = start_launch(env, "robot_talk", "talk.launch.py")
-    lines = read_until(proc, "I heard", [])
-    os.killpg(proc.pid, signal.SIGINT)
-    read_until(proc, "shutting down", lines)  # the launcher has begun to stop its nodes
-    os.killpg(proc.pid, signal.SIGINT)
-    out, _ = proc.communicate(timeout=20)
-    text = "".join(lines) + out
-    assert proc.returncode == 0, text
+    code, text = launched_and_stopped(env, "robot_talk", "talk.launch.py", ctrl_c_twice=True)
+    assert code == 0, text
     assert text.count("process has finished cleanly") == 2, text
     assert "still running" not in text, text
 
