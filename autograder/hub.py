@@ -392,6 +392,19 @@ def serve(url: str, env: dict[str, str], log: Any) -> subprocess.Popen[bytes]:
             time.sleep(0.2)  # polling for the hub to answer, not a wait for time
 
 
+def stop(server: subprocess.Popen[bytes], timeout: float = 120.0) -> None:
+    """Stop what ``serve`` started as Ctrl-C would; SIGKILL after ``timeout`` (a hang
+    guard)."""
+    if server.poll() is not None:
+        return
+    os.killpg(server.pid, signal.SIGINT)
+    try:
+        server.wait(timeout=timeout)
+    except subprocess.TimeoutExpired:
+        os.killpg(server.pid, signal.SIGKILL)
+        server.wait()
+
+
 def process_tree(root: int) -> dict[int, str]:
     """Every process under ``root``: pid -> its start time (tells a reused pid apart)."""
     children: dict[int, list[int]] = {}

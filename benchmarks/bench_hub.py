@@ -14,16 +14,13 @@ spends the venv's minute or two and the proxy's ``npm install``):
 
 from __future__ import annotations
 
-import os
-import signal
 import socket
-import subprocess
 import tempfile
 import time
 from collections.abc import Iterator
 from pathlib import Path
 
-from autograder.hub import add, process_tree, serve
+from autograder.hub import add, process_tree, serve, stop
 from benchmarks import Figure
 from rosbook.book.chromium import chromium_path, launch
 from rosbook.runtime.isolation import child_env
@@ -99,9 +96,4 @@ def run() -> Iterator[Figure]:
                 )
                 yield Figure("idle student server, memory PSS (target 150)", pss / 1024, "MB")
         finally:
-            os.killpg(server.pid, signal.SIGINT)
-            try:
-                server.wait(timeout=120)
-            except subprocess.TimeoutExpired:
-                os.killpg(server.pid, signal.SIGKILL)
-                server.wait()
+            stop(server)

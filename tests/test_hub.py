@@ -24,10 +24,10 @@ import nbformat
 import pytest
 
 from autograder.config import ROOT
-from autograder.hub import add, process_tree, serve
+from autograder.hub import add, process_tree, serve, stop
 from rosbook.runtime.isolation import child_env
 from tests.labtools import answered
-from tests.test_jupyterlab import CELL_S, LAB, START_S, _index, _run_cell
+from tests.test_jupyterlab import CELL_S, LAB, START_S, _index, _run_cell, _wait_for_notebook
 
 STUDENTS = ("ada", "ben", "cyd")
 INSTRUCTOR = "prof"
@@ -88,13 +88,7 @@ def hub(tmp_path_factory: pytest.TempPathFactory) -> Iterator[dict[str, Any]]:
     try:
         yield {"url": url, "state": state, "server": server, "passwords": passwords}
     finally:
-        if server.poll() is None:
-            os.killpg(server.pid, signal.SIGINT)
-            try:
-                server.wait(timeout=STOP_S)
-            except subprocess.TimeoutExpired:
-                os.killpg(server.pid, signal.SIGKILL)
-                server.wait()
+        stop(server, STOP_S)
         log.close()
 
 
@@ -110,13 +104,7 @@ def _log_in(browser: Any, url: str, name: str, password: str) -> Any:
 def _open_lab(page: Any, url: str, name: str) -> None:
     page.wait_for_url(f"**/user/{name}/lab**", timeout=START_S * 1000)
     page.goto(f"{url}/user/{name}/lab/tree/{LAB}.ipynb", timeout=START_S * 1000)
-    page.wait_for_function(
-        "() => { const p = window.jupyterapp && window.jupyterapp.shell.currentWidget;"
-        " const k = p && p.sessionContext && p.sessionContext.session &&"
-        " p.sessionContext.session.kernel;"
-        " if (k && k.status === 'idle') { window.labNotebook = p; return true; } }",
-        timeout=START_S * 1000,
-    )
+    _wait_for_notebook(page)
 
 
 def _terminal(page: Any, command: str) -> None:

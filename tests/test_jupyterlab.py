@@ -129,6 +129,17 @@ def _run_cell(page: Any, index: int) -> str:
     )
 
 
+def _wait_for_notebook(page: Any) -> None:
+    """Until the open notebook's kernel is idle; it is then ``window.labNotebook``."""
+    page.wait_for_function(
+        "() => { const p = window.jupyterapp && window.jupyterapp.shell.currentWidget;"
+        " const k = p && p.sessionContext && p.sessionContext.session &&"
+        " p.sessionContext.session.kernel;"
+        " if (k && k.status === 'idle') { window.labNotebook = p; return true; } }",
+        timeout=START_S * 1000,
+    )
+
+
 def _index(page: Any, text: str) -> int:
     """The first code cell whose source holds ``text``."""
     sources = page.evaluate(
@@ -145,13 +156,7 @@ def test_a_student_session_in_jupyterlab(browser, lab_server) -> None:
     page.on("websocket", lambda ws: sockets.append(ws))
     try:
         page.goto(f"{url}/lab/tree/{LAB}.ipynb?token={token}", timeout=START_S * 1000)
-        page.wait_for_function(
-            "() => { const p = window.jupyterapp && window.jupyterapp.shell.currentWidget;"
-            " const k = p && p.sessionContext && p.sessionContext.session &&"
-            " p.sessionContext.session.kernel;"
-            " if (k && k.status === 'idle') { window.labNotebook = p; return true; } }",
-            timeout=START_S * 1000,
-        )
+        _wait_for_notebook(page)
         setup = _index(page, "from rosbook.labs import lab01 as checks")
         _run_cell(page, setup)
         _run_cell(page, _index(page, "class CounterPublisher(Node)"))
