@@ -53,6 +53,17 @@ def test_run_isolated_passes_its_exit_code_and_domain(tmp_path) -> None:
     assert out.read_text().isdigit()
 
 
+def test_a_run_started_in_the_background_still_hears_ctrl_c() -> None:
+    """``make test &`` (or a CI step) starts with SIGINT ignored; the run's commands
+    must not inherit that, or every Ctrl-C a test or a chapter presses is lost."""
+    probe = "import signal; print(signal.getsignal(signal.SIGINT) is signal.SIG_IGN)"
+    plain = f"{sys.executable} -c {probe!r}"
+    shell = f"{plain} & wait; {sys.executable} -m rosbook.runtime.isolation -- {plain} & wait"
+    done = subprocess.run(["bash", "-c", shell], capture_output=True, text=True, timeout=120)
+    # as bash starts a background command: ignored; through the isolation: heard
+    assert done.stdout.split() == ["True", "False"], done.stdout + done.stderr
+
+
 def test_kill_marked_reaches_a_process_in_another_session() -> None:
     with reserve_domain() as r:
         child = subprocess.Popen(

@@ -227,8 +227,18 @@ def kill_process_group(proc: subprocess.Popen[bytes] | subprocess.Popen[str]) ->
     proc.wait()
 
 
+def heed_ctrl_c() -> None:
+    """Let Ctrl-C (SIGINT) reach this process and what it starts again when it came
+    ignored: a shell starts background commands (``make test &``, a CI step) with SIGINT
+    ignored, every child inherits that, and then a test's or a chapter's Ctrl-C to a
+    ``ros2`` verb, a launch or a shell loop is lost: the command runs on until a timeout."""
+    if signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
+        signal.signal(signal.SIGINT, signal.default_int_handler)
+
+
 def run_isolated(argv: list[str], cwd: str | os.PathLike[str] | None = None) -> int:
     """Run ``argv`` in a fresh domain; leave no process of its group behind."""
+    heed_ctrl_c()
     with reserve_domain() as reservation:
         proc = subprocess.Popen(argv, env=reservation.env(), start_new_session=True, cwd=cwd)
         try:
