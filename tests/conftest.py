@@ -16,8 +16,17 @@ from rosbook.runtime.isolation import isolated_environ
 from rosbook.runtime.session import Session, ros
 
 #: Fixtures that take minutes or load the machine: the whole book built, a browser, a
-#: lab class graded, a colcon workspace built, the CLI run beside busy processes.
-SLOW_FIXTURES = {"built_book", "browser", "graded", "round_trip", "scaffolded", "loaded_runs"}
+#: lab class graded (also a small one, ``quick_class``), a colcon workspace built, the
+#: CLI run beside busy processes.
+SLOW_FIXTURES = {
+    "built_book",
+    "browser",
+    "graded",
+    "quick_class",
+    "round_trip",
+    "scaffolded",
+    "loaded_runs",
+}
 
 
 def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:

@@ -11,6 +11,10 @@ import pytest
 from autograder.check import run_notebook
 from tests.labtools import answered, grade_id, replace_in_answer
 
+#: A lab notebook's kernel and its check cells: out of `make test-fast` (test_lab01 keeps
+#: one round trip).
+pytestmark = pytest.mark.slow
+
 LAB = "lab01_nodes_topics"
 
 STATE = "print('sim_time', ros.sim_time, 'nodes', sorted(n.get_name() for n in ros.nodes))"

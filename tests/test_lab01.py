@@ -180,6 +180,7 @@ def test_self_check_reports_each_visible_check(tmp_path: Path) -> None:
     assert run.changed == []
 
 
+@pytest.mark.slow
 def test_self_check_command_passes_on_the_solution_and_prints_only_its_report(
     tmp_path: Path,
 ) -> None:

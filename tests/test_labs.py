@@ -20,6 +20,7 @@ def normalized(path: Path) -> dict:
     return json.loads(json.dumps(nbformat.read(path, as_version=4), sort_keys=True))
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("lab", LABS_NOW)
 def test_released_lab_is_exactly_what_solutions_generate(lab: str, tmp_path: Path) -> None:
     generated = release_lab(lab, tmp_path / "course", labs_dir=tmp_path / "labs")

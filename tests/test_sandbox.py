@@ -217,6 +217,7 @@ def marked(token: str) -> list[int]:
     return found
 
 
+@pytest.mark.slow
 def test_a_trusted_process_joins_the_sandbox_network_and_nobody_else_hears_it(
     tmp_path, private
 ) -> None:

@@ -7,9 +7,13 @@ import sys
 from pathlib import Path
 
 import nbformat
+import pytest
 
 from autograder.check import big_outputs
 from tests.labtools import answered
+
+#: Each test runs the self-check's notebook in a kernel: out of `make test-fast`.
+pytestmark = pytest.mark.slow
 
 LAB = "lab01_nodes_topics"
 

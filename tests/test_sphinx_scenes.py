@@ -19,6 +19,9 @@ from rosbook.book.chromium import chromium_path
 from rosbook.book.stills import PRINT_CLASS, STILL_CLASS
 from rosbook.viz import scene as viz
 
+#: Each test builds a small Sphinx site (and draws in Chromium): out of `make test-fast`.
+pytestmark = pytest.mark.slow
+
 
 def project(tmp_path: Path) -> Path:
     source = tmp_path / "src"
