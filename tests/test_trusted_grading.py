@@ -23,13 +23,13 @@ from autograder.config import ROOT
 from tests.labtools import answered, feedback, grade, replace_in_answer, submit
 from tests.test_lab01 import LAB, extra_cell, wrong
 
+#: Each case grades attack notebooks with the documented command: out of `make test-fast`.
+pytestmark = pytest.mark.slow
+
 #: Replaces every check in the module ``_m`` (except building the node) by a mock
 #: that accepts anything: the test cells then pass in the kernel whatever the code does.
 NEUTER = """
 from unittest import mock as _mock
-
-#: Each case grades attack notebooks with the documented command: out of `make test-fast`.
-pytestmark = pytest.mark.slow
 for _name in list(vars(_m)):
     if not _name.startswith('_') and _name != 'make_node' and callable(getattr(_m, _name)):
         setattr(_m, _name, _mock.MagicMock())
