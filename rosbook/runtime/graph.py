@@ -54,6 +54,7 @@ __all__ = [
     "hz",
     "interface_show",
     "is_hidden",
+    "keep_watching",
     "lookup",
     "node_info",
     "node_names",
@@ -174,6 +175,33 @@ def discovering_since(node: Node, started: float) -> None:
     _SINCE[node] = started
 
 
+class _Watch:
+    """What an observer's discovery has shown: the last snapshot, when it last changed,
+    how long the first visible node took to show up, whether it ever settled."""
+
+    def __init__(self, shot: tuple[object, ...], t: float) -> None:
+        self.last, self.changed = shot, t
+        self.first_seen: float | None = None
+        self.settled_once = False
+
+    def see(self, shot: tuple[object, ...], t: float) -> None:
+        if shot != self.last:
+            self.last, self.changed = shot, t
+
+
+#: Observers whose discovery is followed across calls (``keep_watching``).
+_WATCHES: weakref.WeakKeyDictionary[Node, _Watch] = weakref.WeakKeyDictionary()
+
+
+def keep_watching(node: Node) -> Callable[[], None]:
+    """Follow ``node``'s discovery across ``settle`` calls, for a long-lived observer (the
+    ``ros2`` daemon): once its graph has settled, a later ``settle`` only waits until
+    nothing changed for ``quiet`` s, counted from the last change seen by any call or by
+    the returned function, which looks at the graph now (call it while idle)."""
+    watch = _WATCHES.setdefault(node, _Watch(snapshot(node), time.monotonic()))
+    return lambda: watch.see(snapshot(node), time.monotonic())
+
+
 def settle(
     node: Node | None = None,
     *,
@@ -194,29 +222,32 @@ def settle(
     announcements may still be under way), so an empty graph is only trusted after
     ``FIRST_NODE_WAIT_S``. ``at_least`` and that wait count from ``discovering_since``
     when the observer's start was recorded (a command's own start-up counts), else
-    from this call.
+    from this call. An observer that ``keep_watching`` follows and that has settled
+    once only waits for ``quiet`` s without change and every endpoint's node known.
     """
     watcher = observer(node)
-    called = changed = time.monotonic()
+    called = time.monotonic()
     start = _SINCE.get(watcher, called)
-    last = snapshot(watcher)
-    first_seen: float | None = None
+    watch = _WATCHES.get(watcher) or _Watch(snapshot(watcher), called)
 
     def settled() -> bool:
-        nonlocal last, changed, first_seen
         if until is not None and until():
             return True
-        now = snapshot(watcher)
         t = time.monotonic()
-        if now != last:
-            last, changed = now, t
-        visible = any(not is_hidden(n) for n in last[0])  # type: ignore[attr-defined]
+        watch.see(snapshot(watcher), t)
+        quiet_for = t - watch.changed
+        if watch.settled_once:
+            return t - start >= at_least and quiet_for >= quiet and _complete(watch.last)
+        visible = any(not is_hidden(n) for n in watch.last[0])  # type: ignore[attr-defined]
         if not visible:
-            return t - start >= max(FIRST_NODE_WAIT_S, at_least) and t - changed >= quiet
-        if first_seen is None:  # how long the others took to answer, our start-up aside
-            first_seen = t - called
-        needed = max(quiet, first_seen)
-        return t - start >= at_least and t - changed >= needed and _complete(last)
+            done = t - start >= max(FIRST_NODE_WAIT_S, at_least) and quiet_for >= quiet
+        else:
+            if watch.first_seen is None:  # how long the others took to answer, start-up aside
+                watch.first_seen = t - called
+            needed = max(quiet, watch.first_seen)
+            done = t - start >= at_least and quiet_for >= needed and _complete(watch.last)
+        watch.settled_once = done
+        return done
 
     return _spin_until(watcher, settled, timeout)
 
