@@ -36,18 +36,9 @@ GRAPH_TIMEOUT_S = 20.0
 
 
 @contextmanager
-def cli_node(*, settle: bool = False, name: str | None = None) -> Iterator[Node]:
-    """A short-lived, hidden node in a context of its own.
-
-    The real ``ros2`` CLI keeps a daemon that knows the graph; this one starts cold, so
-    each verb waits for discovery: one that looks for a name uses ``graph.lookup``
-    (present as soon as seen, absent once the graph settled without it); with ``settle``
-    (listings of the whole graph) the node first waits until discovery has settled and
-    at least one participant announcement period passed (``rosbook.runtime.graph.settle``).
-    Its name starts with an underscore, like the real CLI's ``_ros2cli_*`` nodes, so
-    graph listings leave it out by default; ``name`` names it otherwise (``topic pub -n``).
-    In the daemon (``rosbook.cli.daemon``), it is the daemon's node, discovering for long.
-    """
+def private_node(name: str) -> Iterator[Node]:
+    """A node named ``name`` in an rclpy context of its own (no signal handlers), its
+    discovery start recorded for ``graph.settle``; shut down on exit."""
     import rclpy
     from rclpy.context import Context
     from rclpy.node import Node
@@ -55,23 +46,42 @@ def cli_node(*, settle: bool = False, name: str | None = None) -> Iterator[Node]
 
     from rosbook.runtime import graph
 
-    if daemon.shared_node is not None:  # a request the daemon answers: its node, settled
-        if settle:
-            graph.settle(daemon.shared_node, at_least=graph.ANNOUNCE_PERIOD_S)
-        yield daemon.shared_node
-        return
     started = time.monotonic()
     context = Context()
     rclpy.init(context=context, signal_handler_options=SignalHandlerOptions.NO)
-    node = Node(name or f"_ros2cli_{os.getpid()}", context=context, start_parameter_services=False)
+    node = Node(name, context=context, start_parameter_services=False)
     graph.discovering_since(node, started)
     try:
-        if settle:
-            graph.settle(node, at_least=graph.ANNOUNCE_PERIOD_S)
         yield node
     finally:
         node.destroy_node()
         rclpy.try_shutdown(context=context)
+
+
+@contextmanager
+def cli_node(*, settle: bool = False, name: str | None = None) -> Iterator[Node]:
+    """A short-lived, hidden node in a context of its own.
+
+    Started cold (no daemon), each verb waits for discovery: one that looks for a name
+    uses ``graph.lookup`` (present as soon as seen, absent once the graph settled without
+    it); with ``settle`` (listings of the whole graph) the node first waits until
+    discovery has settled and at least one participant announcement period passed
+    (``rosbook.runtime.graph.settle``). Its name starts with an underscore, like the real
+    CLI's ``_ros2cli_*`` nodes, so graph listings leave it out by default; ``name`` names
+    it otherwise (``topic pub -n``). In the daemon (``rosbook.cli.daemon``), it is the
+    daemon's node, discovering for long.
+    """
+    from rosbook.runtime import graph
+
+    if daemon.shared_node is not None:  # a request the daemon answers
+        if settle:
+            graph.settle(daemon.shared_node, at_least=graph.ANNOUNCE_PERIOD_S)
+        yield daemon.shared_node
+        return
+    with private_node(name or f"_ros2cli_{os.getpid()}") as node:
+        if settle:
+            graph.settle(node, at_least=graph.ANNOUNCE_PERIOD_S)
+        yield node
 
 
 def build_parser(verb: str | None = None) -> argparse.ArgumentParser:

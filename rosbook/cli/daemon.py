@@ -227,29 +227,24 @@ def _run(parser: Any, argv: list[str]) -> dict[str, Any]:
 def serve(path: Path) -> int:
     """The daemon: answer requests on ``path`` until idle, stopped or its socket is gone."""
     global shared_node
-    lock = os.fdopen(os.open(f"{path}.lock", os.O_RDWR | os.O_CREAT, 0o600), "r+")
+    lock_path = f"{path}.lock"
+    lock = os.fdopen(os.open(lock_path, os.O_RDWR | os.O_CREAT, 0o600), "r+")
     try:
         fcntl.flock(lock, fcntl.LOCK_EX | fcntl.LOCK_NB)
     except BlockingIOError:
         return 0  # another daemon serves this environment
-    import rclpy
-    from rclpy.context import Context
-    from rclpy.node import Node
-    from rclpy.signals import SignalHandlerOptions
-
-    from rosbook.cli import build_parser
+    from rosbook.cli import build_parser, private_node
     from rosbook.runtime import graph
 
-    started = time.monotonic()
-    context = Context()
-    rclpy.init(context=context, signal_handler_options=SignalHandlerOptions.NO)
     domain = os.environ.get("ROS_DOMAIN_ID", "0")
-    shared_node = Node(
-        f"_ros2cli_daemon_{domain}_{os.getpid()}", context=context, start_parameter_services=False
-    )
-    graph.discovering_since(shared_node, started)
-    look = graph.keep_watching(shared_node)
-    parser = build_parser()
+    with private_node(f"_ros2cli_daemon_{domain}_{os.getpid()}") as node:
+        shared_node = node
+        return _serve(path, lock_path, graph.keep_watching(node), build_parser())
+
+
+def _serve(path: Path, lock: str, look: Any, parser: Any) -> int:
+    """``serve``'s loop: ``look()`` while idle, ``parser`` for the requests."""
+    assert shared_node is not None
     stopping: list[int] = []
     signal.signal(signal.SIGTERM, lambda *_: stopping.append(1))
     with contextlib.suppress(FileNotFoundError):
@@ -297,10 +292,8 @@ def serve(path: Path) -> int:
             if path.stat().st_ino == inode:
                 path.unlink()
         with contextlib.suppress(OSError):
-            os.unlink(lock.name)  # held still: a daemon starting now makes a new one
+            os.unlink(lock)  # held still: a daemon starting now makes a new one
         server.close()
-        shared_node.destroy_node()
-        rclpy.try_shutdown(context=context)
     return 0
 
 

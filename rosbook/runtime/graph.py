@@ -184,22 +184,43 @@ class _Watch:
         self.first_seen: float | None = None
         self.settled_once = False
 
-    def see(self, shot: tuple[object, ...], t: float) -> None:
+    def settled(
+        self, watcher: Node, *, start: float, called: float, at_least: float, quiet: float
+    ) -> bool:
+        """Whether discovery has settled now (``settle``); ``called``: when the wait began."""
+        t = time.monotonic()
+        shot = snapshot(watcher)
         if shot != self.last:
             self.last, self.changed = shot, t
+        quiet_for = t - self.changed
+        visible = any(not is_hidden(n) for n in self.last[0])  # type: ignore[attr-defined]
+        if not visible and not self.settled_once:
+            done = t - start >= max(FIRST_NODE_WAIT_S, at_least) and quiet_for >= quiet
+        else:
+            if self.first_seen is None:  # how long the others took to answer, start-up aside
+                self.first_seen = 0.0 if self.settled_once else t - called  # (not a newcomer)
+            needed = max(quiet, self.first_seen)
+            done = t - start >= at_least and quiet_for >= needed and _complete(self.last)
+        self.settled_once |= done
+        return done
 
 
 #: Observers whose discovery is followed across calls (``keep_watching``).
 _WATCHES: weakref.WeakKeyDictionary[Node, _Watch] = weakref.WeakKeyDictionary()
 
 
-def keep_watching(node: Node) -> Callable[[], None]:
+def keep_watching(node: Node) -> Callable[[], bool]:
     """Follow ``node``'s discovery across ``settle`` calls, for a long-lived observer (the
-    ``ros2`` daemon): once its graph has settled, a later ``settle`` only waits until
-    nothing changed for ``quiet`` s, counted from the last change seen by any call or by
-    the returned function, which looks at the graph now (call it while idle)."""
-    watch = _WATCHES.setdefault(node, _Watch(snapshot(node), time.monotonic()))
-    return lambda: watch.see(snapshot(node), time.monotonic())
+    ``ros2`` daemon), from now on: once settled, a later ``settle`` waits only until
+    nothing changed for as long as it took then, counted from the last change seen by any
+    call or by the returned function, which looks at the graph now and says whether it
+    has settled (call it while idle)."""
+    called = time.monotonic()
+    start = _SINCE.get(node, called)
+    watch = _WATCHES.setdefault(node, _Watch(snapshot(node), called))
+    return lambda: watch.settled(
+        node, start=start, called=called, at_least=ANNOUNCE_PERIOD_S, quiet=QUIET_S
+    )
 
 
 def settle(
@@ -222,8 +243,8 @@ def settle(
     announcements may still be under way), so an empty graph is only trusted after
     ``FIRST_NODE_WAIT_S``. ``at_least`` and that wait count from ``discovering_since``
     when the observer's start was recorded (a command's own start-up counts), else
-    from this call. An observer that ``keep_watching`` follows and that has settled
-    once only waits for ``quiet`` s without change and every endpoint's node known.
+    from this call. An observer that ``keep_watching`` follows counts its quiet period
+    from the last change it saw, and the first node's delay from when it began.
     """
     watcher = observer(node)
     called = time.monotonic()
@@ -233,21 +254,7 @@ def settle(
     def settled() -> bool:
         if until is not None and until():
             return True
-        t = time.monotonic()
-        watch.see(snapshot(watcher), t)
-        quiet_for = t - watch.changed
-        if watch.settled_once:
-            return t - start >= at_least and quiet_for >= quiet and _complete(watch.last)
-        visible = any(not is_hidden(n) for n in watch.last[0])  # type: ignore[attr-defined]
-        if not visible:
-            done = t - start >= max(FIRST_NODE_WAIT_S, at_least) and quiet_for >= quiet
-        else:
-            if watch.first_seen is None:  # how long the others took to answer, start-up aside
-                watch.first_seen = t - called
-            needed = max(quiet, watch.first_seen)
-            done = t - start >= at_least and quiet_for >= needed and _complete(watch.last)
-        watch.settled_once = done
-        return done
+        return watch.settled(watcher, start=start, called=called, at_least=at_least, quiet=quiet)
 
     return _spin_until(watcher, settled, timeout)
 
