@@ -105,7 +105,7 @@ def main(argv: list[str] | None = None) -> int:
     answered = daemon.ask(argv)
     if answered is not None:
         return answered
-    argv = [a for a in argv if a != daemon.NO_DAEMON] if daemon.answers(argv) else argv
+    argv = [a for a in argv if a != daemon.NO_DAEMON]  # direct anyway: accepted anywhere
     args = build_parser(argv[0] if argv else None).parse_args(argv)
     try:
         return int(args.func(args) or 0)
