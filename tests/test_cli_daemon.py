@@ -190,9 +190,17 @@ def test_a_directory_others_can_enter_is_not_used(tmp_path: Path) -> None:
         assert daemon.socket_path() == shared / daemon.socket_path().name  # type: ignore[union-attr]
 
 
+def test_only_a_run_that_says_so_starts_a_daemon_by_itself() -> None:
+    with reserve_domain() as run:
+        assert daemon.SWITCH not in run.env({daemon.SWITCH: "1"})  # a test, a grading run
+    config = Path(daemon.__file__).parent.parent / "jupyterlab_config.py"
+    assert f'os.environ["{daemon.SWITCH}"] = "1"' in config.read_text()  # make lab's server
+
+
 def test_two_domains_two_daemons_that_never_see_each_other(env: dict[str, str]) -> None:
-    """The other one is started by its first command (as outside isolated runs) and
-    ends when its socket file is removed."""
+    """The other one is started by its first command (as outside isolated runs); a
+    killed daemon's files are removed by the next one to start; a daemon whose socket
+    file is removed ends."""
     with reserve_domain() as other:
         env_b = {**other.env(), daemon.SWITCH: "1"}
         try:
@@ -204,8 +212,19 @@ def test_two_domains_two_daemons_that_never_see_each_other(env: dict[str, str]) 
             assert socket_of(env) != socket_of(env_b)
             assert node_list(env_b) == [] and node_list(env_b, "--no-daemon") == []
             assert "/countdown_server" in node_list(env)
-            socket_of(env_b).unlink()
-            wait_for(lambda: not _alive(pid_b), "the daemon outlived its socket file")
+            os.kill(pid_b, signal.SIGKILL)  # as kill_marked ends it with its run
+            wait_for(lambda: not _alive(pid_b), "the daemon outlived SIGKILL")
+            left = socket_of(env_b)
+            assert left.exists() and Path(f"{left}.lock").exists()
+            assert ros2(env, "daemon", "stop").returncode == 0  # the next one to start
+            # removes what the killed one left
+            assert ros2(env, "daemon", "start").stdout == "The daemon has been started\n"
+            assert not left.exists() and not Path(f"{left}.lock").exists()
+            restarted = daemon_pid(env)
+            assert restarted is not None
+            socket_of(env).unlink()
+            wait_for(lambda: not _alive(restarted), "the daemon outlived its socket file")
+            assert ros2(env, "daemon", "start").stdout == "The daemon has been started\n"
         finally:
             kill_marked(other.token)
 

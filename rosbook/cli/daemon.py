@@ -13,9 +13,11 @@ This client side imports neither rclpy nor the verbs.
   private directory (0700, owned by the user; the socket 0600; never TCP).
 - The first command that finds none starts one (detached: a new session, no inherited
   stdin/stdout/stderr) and answers directly this once, as upstream does; not within
-  an isolated run (``ROSBOOK_RUN_TOKEN``: tests, book builds, grading, sandboxes),
-  where ``ros2 daemon start`` starts one explicitly and ``kill_marked`` ends it with
-  the run, unless ``ROSBOOK_CLI_DAEMON=1``; ``ROSBOOK_CLI_DAEMON=0`` never uses one.
+  an isolated run (``ROSBOOK_RUN_TOKEN``: tests, book builds, grading, sandboxes)
+  unless it sets ``ROSBOOK_CLI_DAEMON=1`` (``make lab``'s server does; isolated runs
+  never inherit it). There ``ros2 daemon start`` starts one, and the daemon, which
+  carries the run's token, ends with the run (``kill_marked``).
+  ``ROSBOOK_CLI_DAEMON=0`` never uses one.
 - It exits after ``IDLE_S`` without a request, when its socket file is removed or
   replaced, on SIGTERM, and on ``ros2 daemon stop``.
 """
@@ -233,6 +235,7 @@ def serve(path: Path) -> int:
         fcntl.flock(lock, fcntl.LOCK_EX | fcntl.LOCK_NB)
     except BlockingIOError:
         return 0  # another daemon serves this environment
+    _sweep(path.parent)
     from rosbook.cli import build_parser, private_node
     from rosbook.runtime import graph
 
@@ -240,6 +243,22 @@ def serve(path: Path) -> int:
     with private_node(f"_ros2cli_daemon_{domain}_{os.getpid()}") as node:
         shared_node = node
         return _serve(path, lock_path, graph.keep_watching(node), build_parser())
+
+
+def _sweep(directory: Path) -> None:
+    """Remove what daemons that were killed (with their isolated run) left: a socket and
+    a lock file that no process holds."""
+    for lock_path in directory.glob("*.sock.lock"):
+        socket_file = Path(str(lock_path).removesuffix(".lock"))
+        if not socket_file.exists():  # a daemon starting now (it binds after its lock)
+            continue
+        try:
+            with open(lock_path, "r+") as lock:
+                fcntl.flock(lock, fcntl.LOCK_EX | fcntl.LOCK_NB)
+                socket_file.unlink(missing_ok=True)
+                lock_path.unlink()
+        except OSError:  # held (BlockingIOError): its daemon runs; or gone already
+            continue
 
 
 def _serve(path: Path, lock: str, look: Any, parser: Any) -> int:
