@@ -5,6 +5,10 @@ action, parameters), in a domain of its own, measured in the same run:
 
 - "python + rclpy start (median)": ``python -c`` that imports rclpy, initialises and
   shuts down: the floor under every cold command;
+- "node list, no daemon (median)": ``ros2 node list --no-daemon``, the direct path: a
+  new node that waits until its discovery has settled;
+- then with the graph daemon running (``ros2 daemon start``; ``rosbook.cli.daemon``),
+  each command still a new process, as a user types it:
 - "node list, cold (median)": ``ros2 node list`` until it prints; target 0.7 s on 2 cores
   (issue 17);
 - "absent topic answer (median)": ``ros2 topic info /absent``, the graph settled (the
@@ -69,10 +73,13 @@ def run() -> list[Figure]:
         try:
             wait_for_demo_nodes()
             start = median(RCLPY_START)
+            direct = median([*ROS2, "node", "list", "--no-daemon"])
+            seconds([*ROS2, "daemon", "start"], expect_code=0)
             listing = median([*ROS2, "node", "list"])
             absent = median([*ROS2, "topic", "info", "/absent"], expect_code=1)
             present = median([*ROS2, "topic", "info", "/parameter_events"])
         finally:
+            subprocess.run([*ROS2, "daemon", "stop"], capture_output=True, timeout=120)
             demo.send_signal(signal.SIGINT)
             try:
                 demo.wait(timeout=30)
@@ -81,6 +88,7 @@ def run() -> list[Figure]:
                 demo.wait()
     return [
         Figure("python + rclpy start (median)", start, "s"),
+        Figure("node list, no daemon (median)", direct, "s"),
         Figure("node list, cold (median; target 0.7)", listing, "s"),
         Figure("absent topic answer (median; target 1.5)", absent, "s"),
         Figure("present topic answer (median)", present, "s"),

@@ -32,9 +32,16 @@ from rosbook.runtime import wheels
 
 wheels.preload()  # before rclpy loads: the ROS wheels' libraries outside a venv too
 
-from rosbook.runtime.session import Session, SimClock, ros  # noqa: E402
-
 __all__ = ["Session", "SimClock", "ros"]
+
+
+def __getattr__(name: str) -> Any:
+    """``rosbook.ros`` and the session's classes, imported on first use: a command that
+    does not talk to ROS itself (a ``ros2`` verb the daemon answers) never loads rclpy."""
+    if name in __all__:
+        return getattr(importlib.import_module("rosbook.runtime.session"), name)
+    raise AttributeError(f"module 'rosbook' has no attribute {name!r}")
+
 
 #: Earlier flat module names and where they live now.
 OLD_NAMES = {

@@ -26,4 +26,8 @@ c.ServerApp.terminado_settings = {
     ]
 }
 os.environ["ROSBOOK_VENV"] = sys.prefix  # the venv this server runs in, for the rc file
+# `ros2` in this server's terminals and kernels starts its graph daemon by itself, as a
+# full install's does (rosbook.cli.daemon): it carries the run's token, so it ends with
+# `make lab` (on the course server, with the student's sandbox)
+os.environ["ROSBOOK_CLI_DAEMON"] = "1"
 c.ServerApp.allow_root = os.geteuid() == 0

@@ -6,6 +6,11 @@ that defines ``add_parser(verbs)``: it registers ``ros2 <name> ...`` on the argp
 sub-parsers ``verbs`` and sets ``func=handler`` with ``handler(args) -> int``. The
 command is installed as ``ros2`` in the project's venv and also runs as
 ``python -m rosbook.cli``.
+
+The read-only graph verbs (``rosbook.cli.daemon.ANSWERED``) ask a per-user graph daemon
+when one runs (``ros2 daemon start|stop|status``; the first such command starts one
+outside isolated runs): it has been discovering since it started, so it answers at once.
+That path does not import rclpy; ``--no-daemon`` asks the graph directly.
 """
 
 from __future__ import annotations
@@ -18,13 +23,12 @@ import sys
 import time
 from collections.abc import Iterator
 from contextlib import contextmanager
+from typing import TYPE_CHECKING
 
-import rclpy
-from rclpy.context import Context
-from rclpy.node import Node
-from rclpy.signals import SignalHandlerOptions
+from rosbook.cli import daemon
 
-from rosbook.runtime import graph
+if TYPE_CHECKING:
+    from rclpy.node import Node
 
 #: Longest a verb waits for an answer from what it found (a service's response, a
 #: parameter service's answer), in seconds of wall time: a guard against a hang.
@@ -32,29 +36,52 @@ GRAPH_TIMEOUT_S = 20.0
 
 
 @contextmanager
-def cli_node(*, settle: bool = False, name: str | None = None) -> Iterator[Node]:
-    """A short-lived, hidden node in a context of its own.
+def private_node(name: str) -> Iterator[Node]:
+    """A node named ``name`` in an rclpy context of its own (no signal handlers), its
+    discovery start recorded for ``graph.settle``; shut down on exit."""
+    import rclpy
+    from rclpy.context import Context
+    from rclpy.node import Node
+    from rclpy.signals import SignalHandlerOptions
 
-    The real ``ros2`` CLI keeps a daemon that knows the graph; this one starts cold, so
-    each verb waits for discovery: one that looks for a name uses ``graph.lookup``
-    (present as soon as seen, absent once the graph settled without it); with ``settle``
-    (listings of the whole graph) the node first waits until discovery has settled and
-    at least one participant announcement period passed (``rosbook.runtime.graph.settle``).
-    Its name starts with an underscore, like the real CLI's ``_ros2cli_*`` nodes, so
-    graph listings leave it out by default; ``name`` names it otherwise (``topic pub -n``).
-    """
+    from rosbook.runtime import graph
+
     started = time.monotonic()
     context = Context()
     rclpy.init(context=context, signal_handler_options=SignalHandlerOptions.NO)
-    node = Node(name or f"_ros2cli_{os.getpid()}", context=context, start_parameter_services=False)
+    node = Node(name, context=context, start_parameter_services=False)
     graph.discovering_since(node, started)
     try:
-        if settle:
-            graph.settle(node, at_least=graph.ANNOUNCE_PERIOD_S)
         yield node
     finally:
         node.destroy_node()
         rclpy.try_shutdown(context=context)
+
+
+@contextmanager
+def cli_node(*, settle: bool = False, name: str | None = None) -> Iterator[Node]:
+    """A short-lived, hidden node in a context of its own.
+
+    Started cold (no daemon), each verb waits for discovery: one that looks for a name
+    uses ``graph.lookup`` (present as soon as seen, absent once the graph settled without
+    it); with ``settle`` (listings of the whole graph) the node first waits until
+    discovery has settled and at least one participant announcement period passed
+    (``rosbook.runtime.graph.settle``). Its name starts with an underscore, like the real
+    CLI's ``_ros2cli_*`` nodes, so graph listings leave it out by default; ``name`` names
+    it otherwise (``topic pub -n``). In the daemon (``rosbook.cli.daemon``), it is the
+    daemon's node, discovering for long.
+    """
+    from rosbook.runtime import graph
+
+    if daemon.shared_node is not None:  # a request the daemon answers
+        if settle:
+            graph.settle(daemon.shared_node, at_least=graph.ANNOUNCE_PERIOD_S)
+        yield daemon.shared_node
+        return
+    with private_node(name or f"_ros2cli_{os.getpid()}") as node:
+        if settle:
+            graph.settle(node, at_least=graph.ANNOUNCE_PERIOD_S)
+        yield node
 
 
 def build_parser(verb: str | None = None) -> argparse.ArgumentParser:
@@ -75,6 +102,10 @@ def build_parser(verb: str | None = None) -> argparse.ArgumentParser:
 
 def main(argv: list[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else argv
+    answered = daemon.ask(argv)
+    if answered is not None:
+        return answered
+    argv = [a for a in argv if a != daemon.NO_DAEMON]  # direct anyway: accepted anywhere
     args = build_parser(argv[0] if argv else None).parse_args(argv)
     try:
         return int(args.func(args) or 0)

@@ -7,9 +7,6 @@ import functools
 import sys
 from collections.abc import Callable
 
-from rosbook.runtime.graph import GraphError
-from rosbook.runtime.interfaces import InterfaceError
-
 Handler = Callable[[argparse.Namespace], int]
 
 
@@ -24,6 +21,9 @@ def reports_errors(handler: Handler) -> Handler:
 
     @functools.wraps(handler)
     def wrapped(args: argparse.Namespace) -> int:
+        from rosbook.runtime.graph import GraphError  # rclpy: not for verbs that need none
+        from rosbook.runtime.interfaces import InterfaceError
+
         try:
             return handler(args)
         except (GraphError, InterfaceError) as error:

@@ -54,6 +54,7 @@ __all__ = [
     "hz",
     "interface_show",
     "is_hidden",
+    "keep_watching",
     "lookup",
     "node_info",
     "node_names",
@@ -174,6 +175,54 @@ def discovering_since(node: Node, started: float) -> None:
     _SINCE[node] = started
 
 
+class _Watch:
+    """What an observer's discovery has shown: the last snapshot, when it last changed,
+    how long the first visible node took to show up, whether it ever settled."""
+
+    def __init__(self, shot: tuple[object, ...], t: float) -> None:
+        self.last, self.changed = shot, t
+        self.first_seen: float | None = None
+        self.settled_once = False
+
+    def settled(
+        self, watcher: Node, *, start: float, called: float, at_least: float, quiet: float
+    ) -> bool:
+        """Whether discovery has settled now (``settle``); ``called``: when the wait began."""
+        t = time.monotonic()
+        shot = snapshot(watcher)
+        if shot != self.last:
+            self.last, self.changed = shot, t
+        quiet_for = t - self.changed
+        visible = any(not is_hidden(n) for n in self.last[0])  # type: ignore[attr-defined]
+        if not visible and not self.settled_once:
+            done = t - start >= max(FIRST_NODE_WAIT_S, at_least) and quiet_for >= quiet
+        else:
+            if self.first_seen is None:  # how long the others took to answer, start-up aside
+                self.first_seen = 0.0 if self.settled_once else t - called  # (not a newcomer)
+            needed = max(quiet, self.first_seen)
+            done = t - start >= at_least and quiet_for >= needed and _complete(self.last)
+        self.settled_once |= done
+        return done
+
+
+#: Observers whose discovery is followed across calls (``keep_watching``).
+_WATCHES: weakref.WeakKeyDictionary[Node, _Watch] = weakref.WeakKeyDictionary()
+
+
+def keep_watching(node: Node) -> Callable[[], bool]:
+    """Follow ``node``'s discovery across ``settle`` calls, for a long-lived observer (the
+    ``ros2`` daemon), from now on: once settled, a later ``settle`` waits only until
+    nothing changed for as long as it took then, counted from the last change seen by any
+    call or by the returned function, which looks at the graph now and says whether it
+    has settled (call it while idle)."""
+    called = time.monotonic()
+    start = _SINCE.get(node, called)
+    watch = _WATCHES.setdefault(node, _Watch(snapshot(node), called))
+    return lambda: watch.settled(
+        node, start=start, called=called, at_least=ANNOUNCE_PERIOD_S, quiet=QUIET_S
+    )
+
+
 def settle(
     node: Node | None = None,
     *,
@@ -194,29 +243,18 @@ def settle(
     announcements may still be under way), so an empty graph is only trusted after
     ``FIRST_NODE_WAIT_S``. ``at_least`` and that wait count from ``discovering_since``
     when the observer's start was recorded (a command's own start-up counts), else
-    from this call.
+    from this call. An observer that ``keep_watching`` follows counts its quiet period
+    from the last change it saw, and the first node's delay from when it began.
     """
     watcher = observer(node)
-    called = changed = time.monotonic()
+    called = time.monotonic()
     start = _SINCE.get(watcher, called)
-    last = snapshot(watcher)
-    first_seen: float | None = None
+    watch = _WATCHES.get(watcher) or _Watch(snapshot(watcher), called)
 
     def settled() -> bool:
-        nonlocal last, changed, first_seen
         if until is not None and until():
             return True
-        now = snapshot(watcher)
-        t = time.monotonic()
-        if now != last:
-            last, changed = now, t
-        visible = any(not is_hidden(n) for n in last[0])  # type: ignore[attr-defined]
-        if not visible:
-            return t - start >= max(FIRST_NODE_WAIT_S, at_least) and t - changed >= quiet
-        if first_seen is None:  # how long the others took to answer, our start-up aside
-            first_seen = t - called
-        needed = max(quiet, first_seen)
-        return t - start >= at_least and t - changed >= needed and _complete(last)
+        return watch.settled(watcher, start=start, called=called, at_least=at_least, quiet=quiet)
 
     return _spin_until(watcher, settled, timeout)
 

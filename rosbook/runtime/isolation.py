@@ -55,8 +55,11 @@ BASE_ENV: dict[str, str] = {
 
 #: Variables no isolated child inherits: a Jupyter kernel that sees it runs under
 #: pytest stops forwarding C-level output (ROS log lines) to the notebook, so a test
-#: would see other outputs than a student or the book build.
-SCRUBBED = ("PYTEST_CURRENT_TEST",)
+#: would see other outputs than a student or the book build. ``ROSBOOK_CLI_DAEMON=1``
+#: lets ``ros2`` start its graph daemon within an isolated run (``rosbook.cli.daemon``):
+#: only where the run itself says so (``make lab``'s server), never inherited by a
+#: test, book build or grading run from the shell that started it.
+SCRUBBED = ("PYTEST_CURRENT_TEST", "ROSBOOK_CLI_DAEMON")
 
 
 def child_env(base: Mapping[str, str] | None = None) -> dict[str, str]:
