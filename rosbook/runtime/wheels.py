@@ -131,13 +131,8 @@ class _Preloader(importlib.abc.MetaPathFinder):
 def preload() -> bool:
     """Makes ``import rclpy`` find the wheels' libraries wherever pip put them; returns
     whether they needed it (False in a venv, with ROS sourced, or when called again)."""
-    if any(isinstance(finder, _Preloader) for finder in sys.meta_path):
+    if any(isinstance(finder, _Preloader) for finder in sys.meta_path) or _found_as_is():
         return False
-    try:
-        ctypes.CDLL(PROBE)
-        return False
-    except OSError:
-        pass
     libraries, packages = installed_dirs()
     if not libraries:
         return False  # no ROS wheels here: rclpy's own error will say so
@@ -151,6 +146,21 @@ def preload() -> bool:
         prepend("PYTHONPATH", packages)
     sys.meta_path.insert(0, _Preloader(libraries))
     return True
+
+
+def _found_as_is() -> bool:
+    """Whether the dynamic linker finds ``PROBE`` without help. Where ``LD_LIBRARY_PATH``
+    names its folder (a venv's bootstrap, a sourced ROS install) that is a look at the
+    folder; loading it to see costs a quarter of a second, and every cold ``ros2``
+    command imports this module."""
+    for folder in os.environ.get("LD_LIBRARY_PATH", "").split(os.pathsep):
+        if folder and os.path.isfile(os.path.join(folder, PROBE)):
+            return True
+    try:
+        ctypes.CDLL(PROBE)
+        return True
+    except OSError:
+        return False
 
 
 def prepend(variable: str, folders: Sequence[Path]) -> None:
