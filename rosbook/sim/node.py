@@ -28,7 +28,7 @@ import inspect
 import math
 import time
 from collections.abc import Callable
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 import rclpy
@@ -227,6 +227,13 @@ class _Executor(SingleThreadedExecutor):
         super().wake()
 
 
+class _Plan(NamedTuple):
+    timers: list[Timer]
+    subs: list[Subscription]
+    services: list[Service]
+    others: list[Any]
+
+
 class _Callbacks:
     """Runs the ready callbacks of the session's nodes in this thread, at a lockstep's cost.
 
@@ -248,7 +255,7 @@ class _Callbacks:
     def __init__(self, nodes: list[Node], executor: _Executor) -> None:
         self.nodes = nodes
         self.executor = executor
-        self._plan: tuple[list[Timer], list[Subscription | Service], list[Any]] | None = None
+        self._plan: _Plan | None = None
         self._wait_set: Any = None
 
     def round(self) -> bool:
@@ -259,6 +266,9 @@ class _Callbacks:
                 self._plan = None
             while self._pass():
                 ran = True
+            if self._serve_requests():
+                ran = True
+                continue
             if not (self.executor.woken or self._others_ready()):
                 return ran
             self.executor.woken = False
@@ -270,42 +280,51 @@ class _Callbacks:
         if not self.round():
             self.executor.spin_once(timeout_sec=timeout)
 
-    def _make_plan(self) -> tuple[list[Timer], list[Subscription | Service], list[Any]]:
-        """What the passes serve (timers; subscriptions and services), and what they do not."""
+    def _make_plan(self) -> _Plan:
+        """What this serves (timers, subscriptions, services), what it leaves to rclpy."""
         timers: list[Timer] = []
-        takes: list[Subscription | Service] = []
+        subs: list[Subscription] = []
+        services: list[Service] = []
         others: list[Any] = []
         for node in self.nodes:
             for timer in node.timers:
                 (timers if self._served_here(timer) else others).append(timer)
-            for entity in (*node.subscriptions, *node.services):
-                (takes if self._served_here(entity) else others).append(entity)
+            for sub in node.subscriptions:
+                (subs if self._served_here(sub) else others).append(sub)
+            for service in node.services:
+                (services if self._served_here(service) else others).append(service)
             others += node.clients
             others += node.guards
             others += (w for w in node.waitables if not isinstance(w, EventHandler))
         self._wait_set = None
-        return timers, takes, others
+        return _Plan(timers, subs, services, others)
 
     def _pass(self) -> bool:
+        """Call the timers due now, then take one message per subscription; whether any."""
         if self._plan is None:
             self._plan = self._make_plan()
-        timers, takes, _ = self._plan
-        due = [timer for timer in timers if timer.handle.is_timer_ready()]
+        due = [timer for timer in self._plan.timers if timer.handle.is_timer_ready()]
         for timer in due:
             self._call_timer(timer)
         taken = False
-        for entity in takes:
-            if isinstance(entity, Subscription):
-                taken = self._take(entity) or taken
-            else:
-                taken = self._serve(entity) or taken
+        for sub in self._plan.subs:
+            taken = self._take(sub) or taken
         return bool(due) or taken
+
+    def _serve_requests(self) -> bool:
+        """Serve one request per service (once the lockstep work is done); whether any."""
+        if self._plan is None:
+            self._plan = self._make_plan()
+        served = False
+        for service in self._plan.services:
+            served = self._serve(service) or served
+        return served
 
     def _others_ready(self) -> bool:
         """Whether something the passes do not serve is ready (one wait of rcl)."""
         if self._plan is None:
             self._plan = self._make_plan()
-        others = self._plan[2]
+        others = self._plan.others
         if not others:
             return False
         kinds = {kind: [e for e in others if isinstance(e, kind)] for kind in _KINDS}
