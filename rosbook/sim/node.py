@@ -261,19 +261,26 @@ class _Callbacks:
     def round(self) -> bool:
         """Run every callback that is ready, and those they make ready; whether any ran."""
         ran = False
+        full_round = False  # one since the last progress of the passes or requests
         while True:
             if self.executor.woken:  # a node changed, or the executor has tasks
                 self._plan = None
             while self._pass():
-                ran = True
+                ran, full_round = True, False
             if self._serve_requests():
-                ran = True
+                ran, full_round = True, False
                 continue
-            if not (self.executor.woken or self._others_ready()):
+            if self.executor.woken:  # new tasks (a future's callbacks): run them
+                pass
+            elif full_round or not self._others_ready():
+                # After a full round without progress, what is still ready waits for
+                # the next round (a task that awaits what never comes, say a deadlock
+                # in its callback group, leaves the executor ready for ever).
                 return ran
             self.executor.woken = False
             self._plan = None  # the executor's tasks may hold entities until they finish
             ran = _round(self.executor) or ran
+            full_round = True
 
     def spin(self, timeout: float) -> None:
         """Run what is ready; if nothing was, wait up to ``timeout`` s for one callback."""
