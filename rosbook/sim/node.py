@@ -538,10 +538,11 @@ class Simulation:
     def _tick(self, callbacks: _Callbacks, catch_up_timeout: float, advance: bool = True) -> None:
         """Physics for one tick, sensors and /clock out, everyone's callbacks, cmd_vel in.
 
-        The first wait takes ``/clock`` (and the sensors); once every node reads the new
-        time, the timers that came due run, as many waits as it takes. A message the
-        nodes send each other meanwhile is taken by the next tick's first wait, as it
-        would arrive a moment later on a robot; the run stays the same every time.
+        The first pass takes ``/clock`` (and the sensors); once every node reads the new
+        time, the timers that came due run, and the messages the nodes send each other
+        meanwhile are taken, pass after pass until nothing is left; then the simulator
+        takes ``cmd_vel``. Nothing depends on the wall clock: the run stays the same
+        every time.
         """
         if advance:
             self.node.advance(self.tick)
