@@ -9,8 +9,10 @@ import numpy as np
 import pytest
 from geometry_msgs.msg import Twist
 from nav_msgs.msg import Odometry
+from rclpy.callback_groups import ReentrantCallbackGroup
 from rclpy.node import Node
 from sensor_msgs.msg import LaserScan
+from std_srvs.srv import Trigger
 
 from rosbook.runtime.session import ros
 from rosbook.sim.diff_drive import arc_step, wrap_angle
@@ -241,6 +243,69 @@ def test_lockstep_run_is_the_same_every_time() -> None:
         return sim.trajectory.as_array().tobytes()
 
     assert path() == path()
+
+
+class Stepper(Node):
+    """A service in lockstep: each call moves a counter; a 50 Hz timer calls it (sync or async)."""
+
+    def __init__(self, awaiting: bool) -> None:
+        super().__init__("stepper")
+        self.count = 0
+        self.answers: list[tuple[float, str]] = []
+        # Reentrant: the coroutine's timer holds the default group while it awaits.
+        group = ReentrantCallbackGroup()
+        self.create_service(Trigger, "step", self.on_step, callback_group=group)
+        self.client = self.create_client(Trigger, "step", callback_group=group)
+        self.create_timer(0.02, self.on_timer_async if awaiting else self.on_timer)
+
+    def on_step(self, request: Trigger.Request, response: Trigger.Response) -> Trigger.Response:
+        self.count += 1
+        response.message = str(self.count)
+        return response
+
+    def now(self) -> float:
+        return self.get_clock().now().nanoseconds / 1e9
+
+    def on_timer(self) -> None:
+        asked = self.now()
+        future = self.client.call_async(Trigger.Request())
+        future.add_done_callback(lambda f: self.answers.append((asked, f.result().message)))
+
+    async def on_timer_async(self) -> None:
+        asked = self.now()
+        response = await self.client.call_async(Trigger.Request())
+        self.answers.append((asked, response.message))
+
+
+@pytest.mark.usefixtures("reset_session")
+@pytest.mark.parametrize("awaiting", [False, True], ids=["done-callback", "coroutine"])
+def test_services_and_clients_answer_within_the_lockstep_tick(awaiting: bool) -> None:
+    def answers() -> list[tuple[float, str]]:
+        sim = Simulation(World(arena=None))
+        stepper = Stepper(awaiting)
+        sim.run(1.0)
+        return stepper.answers
+
+    got = answers()
+    # every call of the tick at t is answered before time moves on, in order
+    assert got == [(pytest.approx(0.02 * k), str(k)) for k in range(1, 51)]
+    assert answers() == got
+
+
+@pytest.mark.usefixtures("reset_session")
+def test_a_tick_needs_no_wait_of_rclpys_executor(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The controller's timer and messages are served without rclpy's per-callback waits."""
+    import rosbook.sim.node as sim_node
+
+    rounds = []
+    full_round = sim_node._round
+    monkeypatch.setattr(sim_node, "_round", lambda ex: rounds.append(1) or full_round(ex))
+    sim = Simulation(World(arena=None))
+    driver = ConstantDriver(0.3, 0.6)
+    sim.run(2.0)
+    assert len(driver.ticks) == 100 and sim.node.commands == 100
+    # the first round (the executor's own start) and one every EVENTS_EVERY_TICKS ticks
+    assert len(rounds) <= 1 + 100 // sim_node.EVENTS_EVERY_TICKS
 
 
 def test_a_start_pose_inside_a_wall_is_refused() -> None:
