@@ -52,6 +52,7 @@ EVENT_GUARD_S = 10.0
 JUDGED_LABS = {
     "lab01_nodes_topics": "autograder.judge_lab01",
     "lab04_urdf": "autograder.judge_lab04",
+    "lab06_launch_system": "autograder.judge_lab06",
 }
 
 
@@ -200,6 +201,19 @@ class _RosbookJudgeAgent:
 
     def call_function(self, name, args):
         self._answer(self._plain(get_ipython().user_ns[name](*args)))
+
+    def call_to_file(self, name, path):
+        """Pickle what the student's ``name()`` returns into ``path``, for a program the
+        judge starts as the student (the judge itself never unpickles it)."""
+        import pickle
+        value = get_ipython().user_ns[name]()
+        try:
+            with open(path, "wb") as f:
+                pickle.dump(value, f)
+        except Exception as exc:
+            self._answer({"type": type(value).__name__, "error": f"{type(exc).__name__}: {exc}"})
+            return
+        self._answer({"type": type(value).__name__, "error": None})
 
     def stop(self):
         if self.executor is not None:
@@ -363,14 +377,15 @@ class Judgement:
         the kernel's sandbox, as the student. Never as the judge."""
         if self.sandbox_pid is None:  # an unsandboxed kernel (the student's own self-check)
             return list(argv)
-        outside = f"/proc/{self.sandbox_pid}/root"
-
-        def inside(path: str) -> str:
-            return path[len(outside) :] if path.startswith(outside + "/") else path
-
         return sandbox.enter_argv(
-            self.sandbox_pid, inside(str(self.folder)), [inside(a) for a in argv]
+            self.sandbox_pid, self.inside(self.folder), [self.inside(a) for a in argv]
         )
+
+    def inside(self, path: str | Path) -> str:
+        """``path`` (as the judge sees it) as the student's code sees it."""
+        outside = f"/proc/{self.sandbox_pid}/root"
+        text = str(path)
+        return text[len(outside) :] if text.startswith(outside + "/") else text
 
 
 class Unreadable:

@@ -220,3 +220,36 @@ def test_lab4_functions_are_judged_by_their_return_values(tmp_path: Path) -> Non
     assert (r["score"], r["status"]) == ("3", "tampered")  # only wheel_separation is right
     page = feedback(out, "neutered_urdf_checks", LAB4)
     assert "Checks that passed only inside your notebook" in page and "test_arm_fk" in page
+
+
+#: Lab 6's attacks, each a cell added to the untouched release (its code earns 0).
+LAB6_ATTACKS = {
+    "lab6_input_transformer": ATTACKS["input_transformer"],
+    "lab6_pre_run_cell_hook": ATTACKS["pre_run_cell_hook"].replace(
+        "rosbook.labs.lab01", "rosbook.labs.lab06"
+    ),
+    "lab6_checks_patched": "import rosbook.labs.lab06 as _m" + NEUTER,
+}
+
+
+def test_lab6_builds_and_launches_are_judged_outside_the_kernel(tmp_path: Path) -> None:
+    """Lab 6's checks skipped or replaced in the kernel earn nothing: the judge builds,
+    runs and launches the student's work itself; and no process is left behind."""
+    from tests.labtools import notebook_path
+    from tests.test_lab01 import live_marked_processes
+
+    lab6 = "lab06_launch_system"
+    root = tmp_path / "submissions"
+    for name, source in LAB6_ATTACKS.items():
+        submit(root, name, lab6, extra_cell(nbformat.read(notebook_path(lab6), 4), source))
+    out = tmp_path / "out"
+    rows = grade(root, out, assignment_id=lab6, workers=2, cell_timeout=120)
+    for name in LAB6_ATTACKS:
+        r = rows[(name, lab6)]
+        assert (r["score"], r["status"]) == ("0", "tampered"), r
+        page = feedback(out, name, lab6)
+        assert "Checks that passed only inside your notebook" in page, page[:2000]
+        assert "test_two_robots" in page  # its check is a module function: replaced
+    # the transformer also turned the manifest's check (a plain assert first) into `pass`
+    assert "test_package_manifest" in feedback(out, "lab6_input_transformer", lab6)
+    assert live_marked_processes() == []
