@@ -11,6 +11,8 @@ from __future__ import annotations
 
 import base64
 import csv
+import json
+import os
 import shutil
 import subprocess
 import sys
@@ -253,3 +255,66 @@ def test_lab6_builds_and_launches_are_judged_outside_the_kernel(tmp_path: Path) 
     # the transformer also turned the manifest's check (a plain assert first) into `pass`
     assert "test_package_manifest" in feedback(out, "lab6_input_transformer", lab6)
     assert live_marked_processes() == []
+
+
+def _cwd_within(folder: Path) -> list[int]:
+    """Live processes whose working folder is ``folder`` or below it."""
+    found = []
+    for entry in Path("/proc").iterdir():
+        try:
+            cwd = Path(os.readlink(entry / "cwd"))
+        except (OSError, ValueError):
+            continue
+        if entry.name.isdigit() and (cwd == folder or folder in cwd.parents):
+            found.append(int(entry.name))
+    return found
+
+
+def test_lab6_judge_names_an_int_rate_and_leaves_no_process(tmp_path: Path) -> None:
+    """The judge itself (a kernel of the student's own, unsandboxed as in a self-check):
+    an int rate kills the talker at launch; the verdict says why, and every process of
+    the launch is gone afterwards (stopped by one Ctrl-C to `ros2 launch`)."""
+    from jupyter_client import KernelManager
+
+    from autograder.judge import Verdict
+    from tests.labtools import answered, replace_in_answer
+
+    lab6 = "lab06_launch_system"
+    notebook = answered(
+        lab6,
+        **replace_in_answer(
+            lab6, "two_robots", "('robot1', 2.0), ('robot2', 5.0)", "('robot1', 2), ('robot2', 5)"
+        ),
+    )
+    kernel_home, folder = tmp_path / "kernel", tmp_path / "judge"
+    kernel_home.mkdir()
+    folder.mkdir()
+    km = KernelManager()
+    km.start_kernel(cwd=str(kernel_home))
+    try:
+        client = km.client()
+        client.start_channels()
+        client.wait_for_ready(timeout=60)
+        for gid in ("setup", "two_robots"):
+            cell = next(
+                c for c in notebook.cells if c.metadata.get("nbgrader", {}).get("grade_id") == gid
+            )
+            reply = client.execute_interactive(cell.source, timeout=120, output_hook=lambda m: None)
+            assert reply["content"]["status"] == "ok", reply["content"]
+        request = {"assignment": lab6, "check": "test_two_robots",
+                   "connection_file": km.connection_file, "folder": str(folder)}  # fmt: skip
+        judged = subprocess.run(
+            [sys.executable, "-I", "-m", "autograder.judge"],
+            input=json.dumps(request) + "\n", capture_output=True, text=True,
+            timeout=600, check=False, cwd=ROOT,
+        )  # fmt: skip
+        client.stop_channels()
+    finally:
+        km.shutdown_kernel(now=True)
+    assert judged.returncode == 0, judged.stderr[-3000:]
+    verdict = Verdict(**json.loads(judged.stdout.splitlines()[-1]))
+    assert not verdict.passed and not verdict.timeout, verdict
+    assert "exited right after the launch with code 1" in verdict.message, verdict.message
+    assert "The rate must be a float" in verdict.message
+    assert "InvalidParameterTypeException" in verdict.message
+    assert _cwd_within(folder) == []
