@@ -377,15 +377,14 @@ class Judgement:
         the kernel's sandbox, as the student. Never as the judge."""
         if self.sandbox_pid is None:  # an unsandboxed kernel (the student's own self-check)
             return list(argv)
-        return sandbox.enter_argv(
-            self.sandbox_pid, self.inside(self.folder), [self.inside(a) for a in argv]
-        )
-
-    def inside(self, path: str | Path) -> str:
-        """``path`` (as the judge sees it) as the student's code sees it."""
         outside = f"/proc/{self.sandbox_pid}/root"
-        text = str(path)
-        return text[len(outside) :] if text.startswith(outside + "/") else text
+
+        def inside(path: str) -> str:
+            return path[len(outside) :] if path.startswith(outside + "/") else path
+
+        return sandbox.enter_argv(
+            self.sandbox_pid, inside(str(self.folder)), [inside(a) for a in argv]
+        )
 
 
 class Unreadable:

@@ -224,13 +224,28 @@ def test_lab4_functions_are_judged_by_their_return_values(tmp_path: Path) -> Non
     assert "Checks that passed only inside your notebook" in page and "test_arm_fk" in page
 
 
+#: Replaces every function of the module ``_m`` by one that accepts anything and whose
+#: result accepts anything (a MagicMock refuses ``report.assert_rates``).
+LAB6_NEUTER = """
+class _Anything:
+    def __call__(self, *a, **k):
+        return self
+    def __getattr__(self, name):
+        return self
+for _name in list(vars(_m)):
+    if not _name.startswith('_') and callable(getattr(_m, _name)):
+        setattr(_m, _name, _Anything())
+"""
+
 #: Lab 6's attacks, each a cell added to the untouched release (its code earns 0).
 LAB6_ATTACKS = {
     "lab6_input_transformer": ATTACKS["input_transformer"],
-    "lab6_pre_run_cell_hook": ATTACKS["pre_run_cell_hook"].replace(
-        "rosbook.labs.lab01", "rosbook.labs.lab06"
+    "lab6_pre_run_cell_hook": (
+        "def _hook(info):\n    import rosbook.labs.lab06 as _m\n"
+        + "\n".join("    " + ln for ln in LAB6_NEUTER.strip().splitlines())
+        + "\nget_ipython().events.register('pre_run_cell', _hook)"
     ),
-    "lab6_checks_patched": "import rosbook.labs.lab06 as _m" + NEUTER,
+    "lab6_checks_patched": "import rosbook.labs.lab06 as _m" + LAB6_NEUTER,
 }
 
 
