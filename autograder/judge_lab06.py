@@ -280,7 +280,7 @@ def launched(launch: Program) -> dict[str, int]:
     """Judge the graph the launch made, then run it on the judge's /clock; the number
     of messages each robot's talker published."""
     watcher = ros_node("judge_lab06_graph")
-    expected = lab06._expected_nodes(RATES)
+    expected = lab06.expected_nodes(RATES)
     probes = {robot: Probe(f"/{robot}/chatter", String, name="rate") for robot in RATES}
     probe = probes["robot1"]
 
@@ -292,11 +292,11 @@ def launched(launch: Program) -> dict[str, int]:
         count = len(processes())
         if not launch.alive() or exit_codes(launch.lines):
             return True
-        nodes = lab06._graph_nodes(probe)
+        nodes = lab06.graph_nodes(probe)
         if count == 0 or len(nodes) < count:
             return False
         return all(
-            f"/{robot}/chatter" in lab06._endpoints(probe, robot)[i]
+            f"/{robot}/chatter" in lab06.endpoints(probe, robot)[i]
             for robot in RATES
             for i in (0, 1)
             if f"/{robot}/talker" in nodes and f"/{robot}/listener" in nodes
@@ -308,7 +308,7 @@ def launched(launch: Program) -> dict[str, int]:
                 f"the launched nodes did not all appear on the ROS graph within "
                 f"{3 * EVENT_GUARD_S:.0f} s (started: {processes()})"
             )
-        nodes = lab06._graph_nodes(probe)
+        nodes = lab06.graph_nodes(probe)
         codes = exit_codes(launch.lines)
         died = [(name, code, _lines_of(launch.lines, name)) for name, code in codes.items()]
         if not launch.alive():

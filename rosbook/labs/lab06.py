@@ -5,6 +5,11 @@ out by ``write_layout``. ``build_package`` builds it with the student's ``packag
 and ``setup.py`` in a scratch workspace, for real; ``check_two_robots`` launches the
 student's description against a reference build and inspects the ROS graph on
 simulated time. Failures are ``CheckFailed`` errors (``AssertionError``s) naming the mistake.
+
+The grader's judge makes the same checks outside the student's kernel: it runs the
+builds as the student with ``python -I -m rosbook.labs.lab06`` (``main``), and the
+launch with ``ros2 launch`` on the description the kernel returned
+(``pickled_description``), and judges what it sees with the functions here.
 """
 
 from __future__ import annotations
@@ -374,7 +379,8 @@ class TwoRobotsReport:
                 )
 
 
-def _expected_nodes(robots: Iterable[str]) -> list[str]:
+def expected_nodes(robots: Iterable[str]) -> list[str]:
+    """The talker and listener of each robot, by full name."""
     return sorted(f"/{robot}/{name}" for robot in robots for name in ("talker", "listener"))
 
 
@@ -399,7 +405,7 @@ def check_two_robots(
         raise CheckFailed(str(error)) from None
     probes = {robot: Probe(f"/{robot}/chatter", String, name="rate") for robot in ROBOTS}
     try:
-        expected = _expected_nodes(ROBOTS)
+        expected = expected_nodes(ROBOTS)
         nodes = _wait_for_nodes(system, probes["robot1"], expected)
         died = [p for p in system.processes if not p.alive()]
         if died:
@@ -457,7 +463,8 @@ def assert_stopped_cleanly(codes: dict[str, int], left_running: bool = False) ->
 OWN_NODES = ("_", "probe", "rate", "sim_clock", "sender", "rosout", "judge")
 
 
-def _graph_nodes(probe: Probe) -> list[str]:
+def graph_nodes(probe: Probe) -> list[str]:
+    """The nodes on the ROS graph by full name (a name twice: two nodes), not the checks' own."""
     return sorted(
         f"{ns.rstrip('/')}/{name}"
         for name, ns in probe.node.get_node_names_and_namespaces()
@@ -465,7 +472,7 @@ def _graph_nodes(probe: Probe) -> list[str]:
     )
 
 
-def _endpoints(probe: Probe, robot: str) -> tuple[dict[str, list[str]], dict[str, list[str]]]:
+def endpoints(probe: Probe, robot: str) -> tuple[dict[str, list[str]], dict[str, list[str]]]:
     """Topics of /robot/talker's publishers and /robot/listener's subscriptions."""
     try:
         published = dict(probe.node.get_publisher_names_and_types_by_node("talker", f"/{robot}"))
@@ -481,11 +488,11 @@ def _wait_for_nodes(system: Launch, probe: Probe, expected: list[str]) -> list[s
     """Wait until the expected nodes and their chatter endpoints are discovered."""
 
     def complete() -> bool:
-        nodes = _graph_nodes(probe)
+        nodes = graph_nodes(probe)
         if not all(n in nodes for n in expected):
             return False
         for robot in ROBOTS:
-            published, subscribed = _endpoints(probe, robot)
+            published, subscribed = endpoints(probe, robot)
             if f"/{robot}/chatter" not in published or f"/{robot}/chatter" not in subscribed:
                 return False
         return True
@@ -496,7 +503,7 @@ def _wait_for_nodes(system: Launch, probe: Probe, expected: list[str]) -> list[s
             break
         ros.spin_for(0.1)
     ros.spin_for(0.3)  # duplicates and extras show up too
-    return _graph_nodes(probe)
+    return graph_nodes(probe)
 
 
 def assert_graph(
@@ -533,7 +540,7 @@ def assert_graph(
             f"expected: {extra or 'none'}.{hint}"
         )
     for robot in ROBOTS:
-        published, subscribed = _endpoints(probe, robot)
+        published, subscribed = endpoints(probe, robot)
         for node, kind, found in (
             ("talker", "publish on", published),
             ("listener", "subscribe to", subscribed),
