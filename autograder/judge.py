@@ -52,6 +52,7 @@ EVENT_GUARD_S = 10.0
 JUDGED_LABS = {
     "lab01_nodes_topics": "autograder.judge_lab01",
     "lab04_urdf": "autograder.judge_lab04",
+    "lab06_launch_system": "autograder.judge_lab06",
 }
 
 
@@ -200,6 +201,19 @@ class _RosbookJudgeAgent:
 
     def call_function(self, name, args):
         self._answer(self._plain(get_ipython().user_ns[name](*args)))
+
+    def call_to_file(self, name, path):
+        """Pickle what the student's ``name()`` returns into ``path``, for a program the
+        judge starts as the student (the judge itself never unpickles it)."""
+        import pickle
+        value = get_ipython().user_ns[name]()
+        try:
+            with open(path, "wb") as f:
+                pickle.dump(value, f)
+        except Exception as exc:
+            self._answer({"type": type(value).__name__, "error": f"{type(exc).__name__}: {exc}"})
+            return
+        self._answer({"type": type(value).__name__, "error": None})
 
     def stop(self):
         if self.executor is not None:

@@ -11,6 +11,8 @@ from __future__ import annotations
 
 import base64
 import csv
+import json
+import os
 import shutil
 import subprocess
 import sys
@@ -223,3 +225,114 @@ def test_lab4_functions_are_judged_by_their_return_values(tmp_path: Path) -> Non
     assert (r["score"], r["status"]) == ("3", "tampered")  # only wheel_separation is right
     page = feedback(out, "neutered_urdf_checks", LAB4)
     assert "Checks that passed only inside your notebook" in page and "test_arm_fk" in page
+
+
+#: Replaces every function of the module ``_m`` by one that accepts anything and whose
+#: result accepts anything (a MagicMock refuses ``report.assert_rates``).
+LAB6_NEUTER = """
+class _Anything:
+    def __call__(self, *a, **k):
+        return self
+    def __getattr__(self, name):
+        return self
+for _name in list(vars(_m)):
+    if not _name.startswith('_') and callable(getattr(_m, _name)):
+        setattr(_m, _name, _Anything())
+"""
+
+#: Lab 6's attacks, each a cell added to the untouched release (its code earns 0).
+LAB6_ATTACKS = {
+    "lab6_input_transformer": ATTACKS["input_transformer"],
+    "lab6_pre_run_cell_hook": (
+        "def _hook(info):\n    import rosbook.labs.lab06 as _m\n"
+        + "\n".join("    " + ln for ln in LAB6_NEUTER.strip().splitlines())
+        + "\nget_ipython().events.register('pre_run_cell', _hook)"
+    ),
+    "lab6_checks_patched": "import rosbook.labs.lab06 as _m" + LAB6_NEUTER,
+}
+
+
+def test_lab6_builds_and_launches_are_judged_outside_the_kernel(tmp_path: Path) -> None:
+    """Lab 6's checks skipped or replaced in the kernel earn nothing: the judge builds,
+    runs and launches the student's work itself; and no process is left behind."""
+    from tests.labtools import notebook_path
+    from tests.test_lab01 import live_marked_processes
+
+    lab6 = "lab06_launch_system"
+    root = tmp_path / "submissions"
+    for name, source in LAB6_ATTACKS.items():
+        submit(root, name, lab6, extra_cell(nbformat.read(notebook_path(lab6), 4), source))
+    out = tmp_path / "out"
+    rows = grade(root, out, assignment_id=lab6, workers=2, cell_timeout=120)
+    for name in LAB6_ATTACKS:
+        r = rows[(name, lab6)]
+        assert (r["score"], r["status"]) == ("0", "tampered"), r
+        page = feedback(out, name, lab6)
+        assert "Checks that passed only inside your notebook" in page, page[:2000]
+        assert "test_two_robots" in page  # its check is a module function: replaced
+    # the transformer also turned the manifest's check (a plain assert first) into `pass`
+    assert "test_package_manifest" in feedback(out, "lab6_input_transformer", lab6)
+    assert live_marked_processes() == []
+
+
+def _cwd_within(folder: Path) -> list[int]:
+    """Live processes whose working folder is ``folder`` or below it."""
+    found = []
+    for entry in Path("/proc").iterdir():
+        try:
+            cwd = Path(os.readlink(entry / "cwd"))
+        except (OSError, ValueError):
+            continue
+        if entry.name.isdigit() and (cwd == folder or folder in cwd.parents):
+            found.append(int(entry.name))
+    return found
+
+
+def test_lab6_judge_names_an_int_rate_and_leaves_no_process(tmp_path: Path) -> None:
+    """The judge itself (a kernel of the student's own, unsandboxed as in a self-check):
+    an int rate kills the talker at launch; the verdict says why, and every process of
+    the launch is gone afterwards (stopped by one Ctrl-C to `ros2 launch`)."""
+    from jupyter_client import KernelManager
+
+    from autograder.judge import Verdict
+    from tests.labtools import answered, replace_in_answer
+
+    lab6 = "lab06_launch_system"
+    notebook = answered(
+        lab6,
+        **replace_in_answer(
+            lab6, "two_robots", "('robot1', 2.0), ('robot2', 5.0)", "('robot1', 2), ('robot2', 5)"
+        ),
+    )
+    kernel_home, folder = tmp_path / "kernel", tmp_path / "judge"
+    kernel_home.mkdir()
+    folder.mkdir()
+    km = KernelManager()
+    km.start_kernel(cwd=str(kernel_home))
+    try:
+        client = km.client()
+        client.start_channels()
+        client.wait_for_ready(timeout=60)
+        for gid in ("setup", "two_robots"):
+            cell = next(
+                c for c in notebook.cells if c.metadata.get("nbgrader", {}).get("grade_id") == gid
+            )
+            reply = client.execute_interactive(cell.source, timeout=120, output_hook=lambda m: None)
+            assert reply["content"]["status"] == "ok", reply["content"]
+        request = {"assignment": lab6, "check": "test_two_robots",
+                   "connection_file": km.connection_file, "folder": str(folder)}  # fmt: skip
+        judged = subprocess.run(
+            [sys.executable, "-I", "-m", "autograder.judge"],
+            input=json.dumps(request) + "\n", capture_output=True, text=True,
+            timeout=600, check=False, cwd=ROOT,
+        )  # fmt: skip
+        client.stop_channels()
+    finally:
+        km.shutdown_kernel(now=True)
+    assert judged.returncode == 0, judged.stderr[-3000:]
+    verdict = Verdict(**json.loads(judged.stdout.splitlines()[-1]))
+    assert not verdict.passed and not verdict.timeout, verdict
+    assert "exited right after the launch with code 1" in verdict.message, verdict.message
+    assert "The rate must be a float" in verdict.message
+    assert "InvalidParameterTypeException" in verdict.message
+    assert _cwd_within(folder) == []

@@ -5,6 +5,11 @@ out by ``write_layout``. ``build_package`` builds it with the student's ``packag
 and ``setup.py`` in a scratch workspace, for real; ``check_two_robots`` launches the
 student's description against a reference build and inspects the ROS graph on
 simulated time. Failures are ``CheckFailed`` errors (``AssertionError``s) naming the mistake.
+
+The grader's judge makes the same checks outside the student's kernel: it runs the
+builds as the student with ``python -I -m rosbook.labs.lab06`` (``main``), and the
+launch with ``ros2 launch`` on the description the kernel returned
+(``pickled_description``), and judges what it sees with the functions here.
 """
 
 from __future__ import annotations
@@ -79,16 +84,17 @@ def _scratch(prefix: str) -> Workspace:
     return ws
 
 
-def build_package(package_xml: str, setup_py: str) -> BuiltPackage:
-    """Lay out ``robot_talk`` with these manifests in a scratch workspace; colcon-build it.
+def build_package(package_xml: str, setup_py: str, root: str | Path | None = None) -> BuiltPackage:
+    """Lay out ``robot_talk`` with these manifests in a workspace (``root``, else a
+    scratch one); colcon-build it.
 
     The same two texts are built once per process (a check after a try-it cell reuses
     the build).
     """
     key = (package_xml, setup_py)
-    if key in _builds and _builds[key].workspace.root.exists():
+    if root is None and key in _builds and _builds[key].workspace.root.exists():
         return _builds[key]
-    ws = _scratch("lab06_ws_")
+    ws = _scratch("lab06_ws_") if root is None else Workspace(root)
     root = write_layout(ws.src)
     (root / "package.xml").write_text(package_xml)
     (root / "setup.py").write_text(setup_py)
@@ -222,34 +228,83 @@ def assert_runs(
         system = launch(description, env=built.env, echo=None)
     except LaunchError as error:
         raise CheckFailed(str(error)) from None
+
+    def printed() -> str:
+        system.wait(1.0)
+        return "\n".join(system.processes[0].lines)
+
+    try:
+        watch_run(executable, system.running, printed, topic, publishes)
+    finally:
+        codes = system.shutdown(sigterm_timeout=3.0, sigkill_timeout=2.0)
+    return [f"{name}: exit code {code}" for name, code in codes.items()]
+
+
+def watch_run(
+    executable: str,
+    running: Callable[[], bool],
+    printed: Callable[[], str],
+    topic: str = "/chatter",
+    publishes: bool = True,
+    guard: float = 10.0,
+    silent: type[Exception] = CheckFailed,
+) -> None:
+    """Wait until the started ``ros2 run robot_talk EXECUTABLE`` publishes on (or
+    subscribes to) ``topic``, seen from a probe of this process; ``silent`` is raised
+    when ``guard`` seconds pass without it (the judge's says "timeout")."""
     probe = Probe(topic, String, name=f"probe_{executable}")
     try:
         if publishes:
             ok = ros.spin_until(
-                lambda: bool(probe.received.messages) or not system.running(), timeout=10.0
+                lambda: bool(probe.received.messages) or not running(), timeout=guard
             )
             what = f"publish on {topic}"
         else:
             ok = ros.spin_until(
-                lambda: probe.node.count_subscribers(topic) > 1 or not system.running(),
-                timeout=10.0,
+                lambda: probe.node.count_subscribers(topic) > 1 or not running(), timeout=guard
             )
             what = f"subscribe to {topic}"
-        if not system.running():
-            system.wait(1.0)
+        if not running():
             raise CheckFailed(
                 f"`ros2 run {PACKAGE} {executable}` exited by itself; it printed:\n"
-                + _tail("\n".join(system.processes[0].lines), 8)
+                + _tail(printed(), 8)
             )
         if not ok:
-            raise CheckFailed(
-                f"`ros2 run {PACKAGE} {executable}` runs but did not {what} within 10 s: "
-                f"does its entry point name the right module ({EXECUTABLES.get(executable)})?"
+            raise silent(
+                f"`ros2 run {PACKAGE} {executable}` runs but did not {what} within {guard:g} "
+                f"s: does its entry point name the right module ({EXECUTABLES.get(executable)})?"
             )
     finally:
-        codes = system.shutdown(sigterm_timeout=3.0, sigkill_timeout=2.0)
         probe.close()
-    return [f"{name}: exit code {code}" for name, code in codes.items()]
+
+
+#: The checks made before ``ros2 run robot_talk talker`` in the test cell; the rest
+#: come after it, and ``ros2 run robot_talk listener`` last.
+CHECKED_BEFORE_RUN = ("built", "versions", "talker")
+
+
+def first_manifest_failure(
+    built: BuiltPackage,
+    expected_executables: dict[str, str] = EXECUTABLES,
+    dependencies: Iterable[str] = DEPENDENCIES,
+    installed: str = f"launch/{LAUNCH_FILE}",
+) -> tuple[str, str] | None:
+    """``(check, message)`` of the first of the test cell's checks of the built package
+    (all but the runs) that fails, in the cell's order; None if all hold."""
+    talker = {"talker": expected_executables["talker"]}
+    for name, check in (
+        ("built", assert_built),
+        ("versions", assert_versions_agree),
+        ("talker", lambda b: assert_executables(b, talker)),
+        ("executables", lambda b: assert_executables(b, expected_executables)),
+        ("dependencies", lambda b: assert_dependencies(b, dependencies)),
+        ("installed", lambda b: assert_installed(b, installed)),
+    ):
+        try:
+            check(built)
+        except CheckFailed as error:
+            return name, str(error)
+    return None
 
 
 # -- task 2: two robots, launched and inspected ------------------------------------------
@@ -284,7 +339,12 @@ def add_reference_package(src: str | Path) -> Path:
 @cache
 def reference_workspace() -> Workspace:
     """A workspace with the reference ``robot_talk``, built once per process."""
-    ws = _scratch("lab06_ref_")
+    return build_reference(_scratch("lab06_ref_").root)
+
+
+def build_reference(root: str | Path) -> Workspace:
+    """The reference ``robot_talk`` built in the workspace ``root``."""
+    ws = Workspace(root)
     add_reference_package(ws.src)
     run = ws.build()
     if not run.ok:
@@ -319,7 +379,8 @@ class TwoRobotsReport:
                 )
 
 
-def _expected_nodes(robots: Iterable[str]) -> list[str]:
+def expected_nodes(robots: Iterable[str]) -> list[str]:
+    """The talker and listener of each robot, by full name."""
     return sorted(f"/{robot}/{name}" for robot in robots for name in ("talker", "listener"))
 
 
@@ -333,11 +394,7 @@ def check_two_robots(
         raise CheckFailed(
             f"generate_launch_description() raised {type(error).__name__}: {error}"
         ) from None
-    if not isinstance(description, LaunchDescription):
-        raise CheckFailed(
-            "generate_launch_description() must return LaunchDescription([...]), "
-            f"not {type(description).__name__}"
-        )
+    assert_description(description)
     ws = reference_workspace()
     env = ws.environ()
     clock = ros.sim_clock()
@@ -348,9 +405,18 @@ def check_two_robots(
         raise CheckFailed(str(error)) from None
     probes = {robot: Probe(f"/{robot}/chatter", String, name="rate") for robot in ROBOTS}
     try:
-        expected = _expected_nodes(ROBOTS)
+        expected = expected_nodes(ROBOTS)
         nodes = _wait_for_nodes(system, probes["robot1"], expected)
-        _assert_graph(system, probes["robot1"], nodes, expected)
+        died = [p for p in system.processes if not p.alive()]
+        if died:
+            system.pump(0.0)
+        assert_graph(
+            probes["robot1"],
+            nodes,
+            expected,
+            len(system.processes),
+            [(f"{p.name} ({p.namespace or '/'})", p.returncode, p.lines) for p in died],
+        )
         local = len(ros.nodes)
         if not ros.spin_until(lambda: clock.subscriber_count() >= local + 4, timeout=10.0):
             raise CheckFailed(
@@ -368,23 +434,45 @@ def check_two_robots(
         for probe in probes.values():
             probe.close()
     report = TwoRobotsReport(nodes, counts, seconds, codes, system.output)
-    unclean = {name: code for name, code in codes.items() if code != 0}
-    if unclean or any(p.alive() for p in system.processes):
-        raise CheckFailed(
-            f"not every node stopped cleanly on Ctrl-C: exit codes {unclean} (0 is clean)"
-        )
+    assert_stopped_cleanly(codes, any(p.alive() for p in system.processes))
     return report
 
 
-def _graph_nodes(probe: Probe) -> list[str]:
-    return sorted(
-        f"{ns.rstrip('/')}/{name}"
-        for name, ns in probe.node.get_node_names_and_namespaces()
-        if not name.startswith(("_", "probe", "rate", "sim_clock", "sender", "rosout"))
+def assert_description(description: object) -> None:
+    """What ``generate_launch_description()`` returned is a ``LaunchDescription``."""
+    if not isinstance(description, LaunchDescription):
+        raise not_a_description(type(description).__name__)
+
+
+def not_a_description(type_name: str) -> CheckFailed:
+    return CheckFailed(
+        f"generate_launch_description() must return LaunchDescription([...]), not {type_name}"
     )
 
 
-def _endpoints(probe: Probe, robot: str) -> tuple[dict[str, list[str]], dict[str, list[str]]]:
+def assert_stopped_cleanly(codes: dict[str, int], left_running: bool = False) -> None:
+    """One Ctrl-C stopped every process with exit code 0."""
+    unclean = {name: code for name, code in codes.items() if code != 0}
+    if unclean or left_running:
+        raise CheckFailed(
+            f"not every node stopped cleanly on Ctrl-C: exit codes {unclean} (0 is clean)"
+        )
+
+
+#: Name prefixes of nodes that are the checks' own, never the student's.
+OWN_NODES = ("_", "probe", "rate", "sim_clock", "sender", "rosout", "judge")
+
+
+def graph_nodes(probe: Probe) -> list[str]:
+    """The nodes on the ROS graph by full name (a name twice: two nodes), not the checks' own."""
+    return sorted(
+        f"{ns.rstrip('/')}/{name}"
+        for name, ns in probe.node.get_node_names_and_namespaces()
+        if not name.startswith(OWN_NODES)
+    )
+
+
+def endpoints(probe: Probe, robot: str) -> tuple[dict[str, list[str]], dict[str, list[str]]]:
     """Topics of /robot/talker's publishers and /robot/listener's subscriptions."""
     try:
         published = dict(probe.node.get_publisher_names_and_types_by_node("talker", f"/{robot}"))
@@ -400,11 +488,11 @@ def _wait_for_nodes(system: Launch, probe: Probe, expected: list[str]) -> list[s
     """Wait until the expected nodes and their chatter endpoints are discovered."""
 
     def complete() -> bool:
-        nodes = _graph_nodes(probe)
+        nodes = graph_nodes(probe)
         if not all(n in nodes for n in expected):
             return False
         for robot in ROBOTS:
-            published, subscribed = _endpoints(probe, robot)
+            published, subscribed = endpoints(probe, robot)
             if f"/{robot}/chatter" not in published or f"/{robot}/chatter" not in subscribed:
                 return False
         return True
@@ -415,24 +503,31 @@ def _wait_for_nodes(system: Launch, probe: Probe, expected: list[str]) -> list[s
             break
         ros.spin_for(0.1)
     ros.spin_for(0.3)  # duplicates and extras show up too
-    return _graph_nodes(probe)
+    return graph_nodes(probe)
 
 
-def _assert_graph(system: Launch, probe: Probe, nodes: list[str], expected: list[str]) -> None:
-    died = [p for p in system.processes if not p.alive()]
+def assert_graph(
+    probe: Probe,
+    nodes: list[str],
+    expected: list[str],
+    started: int,
+    died: list[tuple[str, int | None, list[str]]],
+) -> None:
+    """The launch made exactly the ``expected`` nodes, with their chatter endpoints.
+    ``started``: how many processes it started; ``died``: (process, exit code, what it
+    printed) of those that exited right after the launch."""
     if died:
-        system.pump(0.0)
-        last = _tail("\n".join(died[0].lines), 6)
+        name, code, lines = died[0]
+        last = _tail("\n".join(lines), 6)
         hint = ""
         if "InvalidParameterTypeException" in last:
             hint = " The rate must be a float: {'rate': 5.0}, not {'rate': 5}."
         raise CheckFailed(
-            f"{died[0].name} ({died[0].namespace or '/'}) exited right after the "
-            f"launch with code {died[0].returncode}.{hint} It printed:\n{last}"
+            f"{name} exited right after the launch with code {code}.{hint} It printed:\n{last}"
         )
     missing = [n for n in expected if n not in nodes]
     extra = [n for n in nodes if n not in expected]
-    if missing or extra or len(system.processes) != len(expected):
+    if missing or extra or started != len(expected):
         hint = ""
         if any(n.count("/") == 1 for n in extra):
             hint = (
@@ -440,12 +535,12 @@ def _assert_graph(system: Launch, probe: Probe, nodes: list[str], expected: list
                 "give each robot's nodes namespace='robot1' or namespace='robot2'."
             )
         raise CheckFailed(
-            f"the launch started {len(system.processes)} processes, and the graph holds "
+            f"the launch started {started} processes, and the graph holds "
             f"{nodes}; expected exactly {expected}. Missing: {missing or 'none'}; not "
             f"expected: {extra or 'none'}.{hint}"
         )
     for robot in ROBOTS:
-        published, subscribed = _endpoints(probe, robot)
+        published, subscribed = endpoints(probe, robot)
         for node, kind, found in (
             ("talker", "publish on", published),
             ("listener", "subscribe to", subscribed),
@@ -457,3 +552,58 @@ def _assert_graph(system: Launch, probe: Probe, nodes: list[str], expected: list
                     f"{topics}): keep the relative topic name 'chatter', without a "
                     "remapping, so that the namespace applies to it"
                 )
+
+
+# -- as a program: the builds, run as the student where the student's code runs -------
+
+#: The launch file ``reference`` writes: the kernel's description, on simulated time.
+JUDGED_LAUNCH = "two_robots.launch.py"
+
+
+def pickled_description() -> LaunchDescription:
+    """What the student's ``generate_launch_description()`` returned, pickled by their
+    kernel into the file ``ROSBOOK_LAB06_DESCRIPTION`` names, after
+    ``SetParameter('use_sim_time', True)`` (loaded by ``ros2 launch``, as the student)."""
+    import os
+    import pickle
+
+    with open(os.environ["ROSBOOK_LAB06_DESCRIPTION"], "rb") as f:
+        description = pickle.load(f)  # noqa: S301 - the student's own, loaded as the student
+    assert_description(description)
+    return LaunchDescription([SetParameter("use_sim_time", True), *description.entities])
+
+
+#: Starts the one line a ``python -m rosbook.labs.lab06`` run reports (JSON follows).
+REPORT = "rosbook-lab06-report: "
+
+
+def main(argv: list[str] | None = None) -> int:
+    """``python -I -m rosbook.labs.lab06 manifest|reference FOLDER``, given a JSON object
+    on stdin: ``manifest`` builds ``robot_talk`` in ``FOLDER/ws`` from its
+    ``package_xml`` and ``setup_py`` and reports the first failing check (``expected``:
+    ``first_manifest_failure``'s keywords); ``reference`` builds the reference package
+    in ``FOLDER/ws`` and writes ``FOLDER/two_robots.launch.py``. A grader runs these as
+    the student (``setup.py`` is the student's code); the report repeats the ``nonce``
+    it was given, which the student's code never sees."""
+    import json
+    import sys
+
+    what, folder = sys.argv[1:] if argv is None else argv
+    request = json.load(sys.stdin)
+    root = Path(folder)
+    if what == "reference":
+        build_reference(root / "ws")
+        (root / JUDGED_LAUNCH).write_text(
+            "from rosbook.labs import lab06\n\n\ndef generate_launch_description():\n"
+            "    return lab06.pickled_description()\n"
+        )
+        report: dict[str, object] = {"built": True}
+    else:
+        built = build_package(request["package_xml"], request["setup_py"], root / "ws")
+        report = {"failure": first_manifest_failure(built, **request["expected"])}
+    print(REPORT + json.dumps({**report, "nonce": request["nonce"]}), flush=True)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -382,15 +382,30 @@ def run_script(
     argv = [sys.executable, "-u", str(script)]
     if ros_args:
         argv += ["--ros-args", *ros_args]
+    with run_program(argv, cwd=cwd, wrap=wrap, path=script) as run:
+        yield run
+
+
+@contextmanager
+def run_program(
+    argv: list[str],
+    cwd: str | os.PathLike[str] | None = None,
+    wrap: Callable[[list[str]], list[str]] = list,
+    path: Path | None = None,
+    stdin: bool = False,
+) -> Iterator[ScriptRun]:
+    """Start ``wrap(argv)`` in a process group of its own (output merged, ``stdin``: a
+    pipe to write to) and make sure it and what it started are gone afterwards."""
     proc = subprocess.Popen(
         wrap(argv),
         cwd=cwd,
+        stdin=subprocess.PIPE if stdin else subprocess.DEVNULL,
         stdout=subprocess.PIPE,
         stderr=subprocess.STDOUT,
         text=True,
         start_new_session=True,
     )
-    run = ScriptRun(proc, script)
+    run = ScriptRun(proc, path or Path(argv[0]))
     try:
         yield run
     finally:
