@@ -4,7 +4,9 @@
 
 - ``SandboxSpawner``: a student's single-user server runs in the grader's sandbox
   (``autograder.sandbox``: its own user, PID, IPC and mount namespaces, the system and
-  the venv read-only, per-process memory and process limits) on a ``Network`` of its
+  the venv read-only, per-process memory and process limits, and a cgroup of its own:
+  ``SandboxSpawner.cpus`` CPUs and ``.ram`` bytes for everything the student runs,
+  ``.processes`` tasks; ``autograder.cgroups``) on a ``Network`` of its
   own: a loopback only, so ROS traffic never crosses students, whatever their
   ``ROS_DOMAIN_ID``. The student's home is their own folder on the host
   (``home_dir_template``) bound at ``/home/student``; no other student's folder exists
@@ -62,7 +64,7 @@ from urllib.parse import urlparse, urlunparse
 from jupyterhub.auth import Authenticator
 from jupyterhub.spawner import SimpleLocalProcessSpawner
 from nbgrader.utils import notebook_hash
-from traitlets import Integer, Unicode
+from traitlets import Float, Integer, Unicode
 from traitlets.config.loader import PyFileConfigLoader
 
 from autograder import relay
@@ -102,6 +104,8 @@ class SandboxSpawner(SimpleLocalProcessSpawner):  # type: ignore[misc]
 
     memory = Integer(Limits.memory, config=True, help="Address space of each process (bytes).")
     processes = Integer(Limits.processes, config=True, help="Processes and threads.")
+    cpus = Float(1.0, config=True, help="CPUs of a student's sandbox (its cgroup's quota).")
+    ram = Integer(1 << 30, config=True, help="Memory of a student's sandbox (bytes).")
     disk = Integer(Limits.disk, config=True, help="Size of the sandbox's /tmp (bytes).")
     run_dir = Unicode(
         str(ROOT / ".hub" / "run"), config=True, help="Host folder of per-student sockets."
@@ -120,7 +124,13 @@ class SandboxSpawner(SimpleLocalProcessSpawner):  # type: ignore[misc]
     _server_pid = 0  # the sandbox's first process, seen from the hub
 
     def _limits(self) -> Limits:
-        return Limits(memory=self.memory, processes=self.processes, disk=self.disk)
+        return Limits(
+            memory=self.memory,
+            processes=self.processes,
+            disk=self.disk,
+            cpus=self.cpus,
+            ram=self.ram,
+        )
 
     async def _join_relay(self, listen: str, connect: str) -> subprocess.Popen[bytes]:
         assert self._network is not None
@@ -221,6 +231,7 @@ class SandboxSpawner(SimpleLocalProcessSpawner):  # type: ignore[misc]
             env=env,
             limits=self._limits(),
             binds={HOME: home, RUN: server_dir, EXCHANGE: exchange},
+            label=f"hub-{self.user.name}",
         )
         launch.env.update(
             {k: v for k, v in env.items() if k.startswith("JUPYTERHUB_") or k == "JPY_API_TOKEN"}

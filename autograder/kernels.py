@@ -1,6 +1,8 @@
 """The kernel manager the grader and the self-check run notebooks with: sandboxed.
 
-Every kernel runs in a sandbox (``autograder/sandbox.py``): the notebook's folder is
+Every kernel runs in a sandbox (``autograder/sandbox.py``) with a cgroup of its own
+(``c.IpcKernelManager.cpus`` and ``.ram`` in the nbgrader config override its CPU quota
+and memory limit, ``Limits.cpus`` and ``Limits.ram`` by default): the notebook's folder is
 copied into the sandbox's home, and the kernel sees nothing of the grader's. It talks
 to the grader over Unix sockets (``ipc``; TCP would need the grader inside the
 sandbox's network): the kernel binds them in a small tmpfs of its own
@@ -31,7 +33,7 @@ from jupyter_client import AsyncKernelManager
 from nbformat import NotebookNode
 from nbformat.v4 import new_output
 from nbgrader.preprocessors import Execute
-from traitlets import Bool, Integer, default
+from traitlets import Bool, Float, Integer, default
 
 from autograder import sandbox
 
@@ -60,7 +62,18 @@ class IpcKernelManager(AsyncKernelManager):
     #: The sandbox's first process, by which a trusted process enters it (``enter_argv``).
     sandbox_pid: int | None = None
 
-    limits = sandbox.Limits()
+    cpus = Float(
+        sandbox.Limits.cpus, config=True, help="CPUs of each kernel's sandbox (its cgroup's quota)."
+    )
+    ram = Integer(
+        sandbox.Limits.ram,
+        config=True,
+        help="Memory of each kernel's sandbox (bytes; OOM past it).",
+    )
+
+    @property
+    def limits(self) -> sandbox.Limits:
+        return sandbox.Limits(cpus=self.cpus, ram=self.ram)
 
     @default("transport")
     def _transport_default(self) -> str:
@@ -113,6 +126,7 @@ class IpcKernelManager(AsyncKernelManager):
             limits=self.limits,
             tmpfs=[KERNEL_DIR],
             files={"/run/rosbook/kernel.json": inside_file},
+            label="kernel",
         )
         kw.update(
             env=launch.env,
