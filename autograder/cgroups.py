@@ -145,7 +145,11 @@ class Cgroup:
     def remove_after(self, pid: int) -> None:
         """Remove the cgroup (and what is left in it) once process ``pid`` has ended
         (``pidfd``: it need not be our child, and is not reaped here)."""
-        pidfd = os.pidfd_open(pid)
+        try:
+            pidfd = os.pidfd_open(pid)
+        except ProcessLookupError:  # already gone
+            self.remove()
+            return
 
         def watch() -> None:
             try:
@@ -218,6 +222,7 @@ def _sweep(parent: Path) -> None:
 def _v2_parent(mount: Path, path: str) -> tuple[Path | None, str]:
     """The v2 folder to put ``rosbook/`` in, with the controllers on; or why not."""
     own_group = mount / path.lstrip("/")
+    reason = f"cgroup v2 at {own_group}: no parent of ours"
     for base in (own_group, own_group.parent):
         if not str(base).startswith(str(mount)):
             break
@@ -225,9 +230,10 @@ def _v2_parent(mount: Path, path: str) -> tuple[Path | None, str]:
         if not set(CONTROLLERS) <= set(available):
             return None, f"cgroup v2 at {base} lacks {set(CONTROLLERS) - set(available)}"
         try:
-            _write(base / "cgroup.subtree_control", " ".join(f"+{c}" for c in CONTROLLERS))
+            enable = " ".join(f"+{c}" for c in CONTROLLERS)
+            _write(base / "cgroup.subtree_control", enable)
             (base / "rosbook").mkdir(exist_ok=True)
-            _write(base / "rosbook" / "cgroup.subtree_control", "+cpu +memory +pids")
+            _write(base / "rosbook" / "cgroup.subtree_control", enable)
             return base / "rosbook", ""
         except OSError as exc:
             reason = f"cgroup v2 at {base}: {exc.strerror}"
@@ -275,11 +281,9 @@ def create(label: str, cpus: float, ram: int, processes: int) -> Cgroup | None:
             return Cgroup(2, {"v2": folder})
         reasons.append(reason)
     folders: dict[str, Path] = {}
-    missing = []
     try:
         for controller in (*CONTROLLERS, "cpuacct"):
             if controller not in mounts or controller not in groups:
-                missing.append(controller)
                 continue
             parent = mounts[controller] / groups[controller].lstrip("/") / "rosbook"
             try:
@@ -287,7 +291,6 @@ def create(label: str, cpus: float, ram: int, processes: int) -> Cgroup | None:
                 _sweep(parent)
                 (parent / name).mkdir(exist_ok=True)
             except OSError as exc:
-                missing.append(controller)
                 reasons.append(f"cgroup v1 {controller}: {exc.strerror} ({parent})")
                 continue
             folders[controller] = parent / name
@@ -299,9 +302,9 @@ def create(label: str, cpus: float, ram: int, processes: int) -> Cgroup | None:
     if lost:
         what = {"cpu": "the CPU quota", "memory": "the memory limit", "pids": "pids.max"}
         _warn_once(
-            f"no per-sandbox {', '.join(what[c] for c in lost)} "
+            f"sandboxes run without {', '.join(what[c] for c in lost)} "
             f"({'; '.join(reasons) or 'no cgroup hierarchy for ' + ', '.join(lost)}). "
-            f"Only the per-process rlimits apply. {FIX}"
+            f"For those, only the per-process rlimits apply. {FIX}"
         )
     if not any(c in folders for c in CONTROLLERS):
         _remove(sorted(set(folders.values())))

@@ -68,6 +68,7 @@ from traitlets import Float, Integer, Unicode
 from traitlets.config.loader import PyFileConfigLoader
 
 from autograder import relay
+from autograder.cgroups import Cgroup
 from autograder.sandbox import HOME, Limits, Network, prepare, start
 from rosbook.runtime.isolation import BASE_ENV
 
@@ -119,6 +120,7 @@ class SandboxSpawner(SimpleLocalProcessSpawner):  # type: ignore[misc]
     _proc: subprocess.Popen[bytes] | None = None
     _network: Network | None = None
     _joined: subprocess.Popen[bytes] | None = None
+    _cgroup: Cgroup | None = None
     _relays: list[asyncio.AbstractServer]
     _private = ""  # the sandbox's generated files (autograder.sandbox.prepare)
     _server_pid = 0  # the sandbox's first process, seen from the hub
@@ -236,6 +238,7 @@ class SandboxSpawner(SimpleLocalProcessSpawner):  # type: ignore[misc]
         launch.env.update(
             {k: v for k, v in env.items() if k.startswith("JUPYTERHUB_") or k == "JPY_API_TOKEN"}
         )
+        self._cgroup = launch.cgroup
         self._proc, self._server_pid = await asyncio.to_thread(
             start, launch, stdin=subprocess.DEVNULL
         )
@@ -259,6 +262,9 @@ class SandboxSpawner(SimpleLocalProcessSpawner):  # type: ignore[misc]
             if proc.poll() is None:
                 proc.kill()  # bwrap: the sandbox's PID namespace dies with it
             await asyncio.to_thread(proc.wait)
+        if self._cgroup is not None:  # now, not when its watcher runs: the hub may exit
+            await asyncio.to_thread(self._cgroup.remove)
+            self._cgroup = None
         for server in getattr(self, "_relays", []):
             server.close()
         self._relays = []

@@ -19,6 +19,7 @@ the feedback page.
 
 from __future__ import annotations
 
+import asyncio
 import json
 import os
 import shutil
@@ -135,6 +136,7 @@ class IpcKernelManager(AsyncKernelManager):
             stderr=subprocess.STDOUT,
             cwd="/",
         )
+        self._cgroup = launch.cgroup
         try:
             await super()._async_launch_kernel(launch.argv, **kw)
         finally:
@@ -152,6 +154,9 @@ class IpcKernelManager(AsyncKernelManager):
 
     async def _async_cleanup_resources(self, restart: bool = False) -> None:
         await super()._async_cleanup_resources(restart)
+        if getattr(self, "_cgroup", None) is not None:  # the kernel has ended
+            await asyncio.to_thread(self._cgroup.remove)
+            self._cgroup = None
         if getattr(self, "_own_network", None) is not None:
             self._own_network.close()
             self._own_network = None

@@ -214,6 +214,6 @@ def test_without_cgroups_the_missing_limits_and_the_fix_are_said_once(tmp_path, 
         proc, _ = sandbox.start(launch, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
         out, err = proc.communicate(timeout=GUARD)
     assert out == "None None\n", out + err
-    assert err.count("autograder.cgroups: no per-sandbox") == 1, err
+    assert err.count("autograder.cgroups: sandboxes run without") == 1, err
     assert "the CPU quota, the memory limit, pids.max" in err and "Read-only" in err, err
     assert "rlimits apply" in err and "Fix:" in err
