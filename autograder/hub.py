@@ -85,6 +85,18 @@ COURSE = str(
 )
 #: nbgrader's instructor tools (JupyterLab plugins), off in students' servers.
 INSTRUCTOR_TOOLS = ("formgrader", "course-list", "create-assignment")
+#: Server extensions off in students' servers (memory: issue 18's 150 MB per idle
+#: student): nbgrader's instructor side; jupyter_lsp (no language server is
+#: installed); jupytext (labs are notebooks: its JupyterLab plugin goes too);
+#: notebook_shim (for classic-notebook extensions: none here). What the labs use stays:
+#: nbgrader's Assignments tab and validate, terminals, the proxy for live 3D views.
+STUDENT_OFF = (
+    "nbgrader.server_extensions.formgrader",
+    "nbgrader.server_extensions.course_list",
+    "jupyter_lsp",
+    "jupyterlab_jupytext",
+    "notebook_shim",
+)
 #: A hang guard for a relay or a server to come up (a loaded machine is slow).
 START_TIMEOUT = 120.0
 
@@ -178,6 +190,7 @@ class SandboxSpawner(SimpleLocalProcessSpawner):  # type: ignore[misc]
             labconfig = config.parent / "labconfig"
             labconfig.mkdir(exist_ok=True)
             disabled = {f"@jupyter/nbgrader:{name}": True for name in INSTRUCTOR_TOOLS}
+            disabled["jupyterlab-jupytext"] = True
             (labconfig / "page_config.json").write_text(
                 json.dumps({"disabledExtensions": disabled})
             )
@@ -216,10 +229,7 @@ class SandboxSpawner(SimpleLocalProcessSpawner):  # type: ignore[misc]
             *(
                 []
                 if self.user.admin
-                else [
-                    f"--ServerApp.jpserver_extensions=nbgrader.server_extensions.{name}=False"
-                    for name in ("formgrader", "course_list")
-                ]
+                else [f"--ServerApp.jpserver_extensions={name}=False" for name in STUDENT_OFF]
             ),
             f"--config={self.jupyter_config}",
             f"--ServerApp.sock={RUN}/jupyter.sock",
