@@ -107,6 +107,18 @@ class Cgroup:
     def _file(self, controller: str, name: str) -> Path:
         return self.folders["v2" if self.version == 2 else controller] / name
 
+    def limits(self) -> tuple[float, int, int]:
+        """(CPUs, memory bytes, tasks) this cgroup allows, as the kernel holds them."""
+        if self.version == 2:
+            quota, period = self._file("cpu", "cpu.max").read_text().split()
+            cpus = int(quota) / int(period)
+            ram = int(self._file("memory", "memory.max").read_text())
+        else:
+            quota = self._file("cpu", "cpu.cfs_quota_us").read_text()
+            cpus = int(quota) / int(self._file("cpu", "cpu.cfs_period_us").read_text())
+            ram = int(self._file("memory", "memory.limit_in_bytes").read_text())
+        return cpus, ram, int(self._file("pids", "pids.max").read_text())
+
     def cpu_seconds(self) -> float:
         """CPU time used by everything in the sandbox."""
         if self.version == 2:

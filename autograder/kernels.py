@@ -36,7 +36,7 @@ from nbformat.v4 import new_output
 from nbgrader.preprocessors import Execute
 from traitlets import Bool, Float, Integer, default
 
-from autograder import sandbox
+from autograder import cgroups, sandbox
 
 #: Inside the sandbox: where the kernel's sockets and connection file are.
 KERNEL_DIR = "/run/kernel"
@@ -62,6 +62,8 @@ class IpcKernelManager(AsyncKernelManager):
     sandbox_folder: str | None = None
     #: The sandbox's first process, by which a trusted process enters it (``enter_argv``).
     sandbox_pid: int | None = None
+    #: The sandbox's cgroup (None where cgroups cannot be made: ``autograder.cgroups``).
+    cgroup: cgroups.Cgroup | None = None
 
     cpus = Float(
         sandbox.Limits.cpus, config=True, help="CPUs of each kernel's sandbox (its cgroup's quota)."
@@ -136,7 +138,7 @@ class IpcKernelManager(AsyncKernelManager):
             stderr=subprocess.STDOUT,
             cwd="/",
         )
-        self._cgroup = launch.cgroup
+        self.cgroup = launch.cgroup
         try:
             await super()._async_launch_kernel(launch.argv, **kw)
         finally:
@@ -154,9 +156,9 @@ class IpcKernelManager(AsyncKernelManager):
 
     async def _async_cleanup_resources(self, restart: bool = False) -> None:
         await super()._async_cleanup_resources(restart)
-        if getattr(self, "_cgroup", None) is not None:  # the kernel has ended
-            await asyncio.to_thread(self._cgroup.remove)
-            self._cgroup = None
+        if self.cgroup is not None:  # the kernel has ended
+            await asyncio.to_thread(self.cgroup.remove)
+            self.cgroup = None
         if getattr(self, "_own_network", None) is not None:
             self._own_network.close()
             self._own_network = None

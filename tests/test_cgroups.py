@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import asyncio
 import os
 import subprocess
 import sys
@@ -9,8 +10,10 @@ import time
 from pathlib import Path
 
 import pytest
+from traitlets.config import Config
 
 from autograder import cgroups, sandbox
+from autograder.kernels import IpcKernelManager
 from tests.test_sandbox import private as private  # noqa: F401 - a fixture used here
 from tests.test_sandbox import ros_env
 
@@ -217,3 +220,23 @@ def test_without_cgroups_the_missing_limits_and_the_fix_are_said_once(tmp_path, 
     assert err.count("autograder.cgroups: sandboxes run without") == 1, err
     assert "the CPU quota, the memory limit, pids.max" in err and "Read-only" in err, err
     assert "rlimits apply" in err and "Fix:" in err
+
+
+def test_a_grading_kernel_runs_in_a_cgroup_of_the_configured_size(writable) -> None:
+    """``c.IpcKernelManager.cpus`` and ``.ram`` (the nbgrader config) size each kernel's
+    sandbox; its cgroup goes with the kernel."""
+    config = Config({"IpcKernelManager": {"cpus": 0.5, "ram": 300 << 20}})
+
+    async def run() -> cgroups.Cgroup:
+        manager = IpcKernelManager(config=config, kernel_name="python3")
+        await manager.start_kernel(env=ros_env())
+        try:
+            group = manager.cgroup
+            assert group is not None and manager.sandbox_pid in group.pids()
+            assert group.limits() == (0.5, 300 << 20, sandbox.Limits.processes)
+        finally:
+            await manager.shutdown_kernel(now=True)
+        return group
+
+    group = asyncio.run(run())
+    assert group.gone.is_set() and not any(f.exists() for f in group.directories())
