@@ -4,7 +4,9 @@
 
 - ``SandboxSpawner``: a student's single-user server runs in the grader's sandbox
   (``autograder.sandbox``: its own user, PID, IPC and mount namespaces, the system and
-  the venv read-only, per-process memory and process limits) on a ``Network`` of its
+  the venv read-only, per-process memory and process limits, and a cgroup of its own:
+  ``SandboxSpawner.cpus`` CPUs and ``.ram`` bytes for everything the student runs,
+  ``.processes`` tasks; ``autograder.cgroups``) on a ``Network`` of its
   own: a loopback only, so ROS traffic never crosses students, whatever their
   ``ROS_DOMAIN_ID``. The student's home is their own folder on the host
   (``home_dir_template``) bound at ``/home/student``; no other student's folder exists
@@ -62,10 +64,11 @@ from urllib.parse import urlparse, urlunparse
 from jupyterhub.auth import Authenticator
 from jupyterhub.spawner import SimpleLocalProcessSpawner
 from nbgrader.utils import notebook_hash
-from traitlets import Integer, Unicode
+from traitlets import Float, Integer, Unicode
 from traitlets.config.loader import PyFileConfigLoader
 
 from autograder import relay
+from autograder.cgroups import Cgroup
 from autograder.sandbox import HOME, Limits, Network, prepare, start
 from rosbook.runtime.isolation import BASE_ENV
 
@@ -82,6 +85,18 @@ COURSE = str(
 )
 #: nbgrader's instructor tools (JupyterLab plugins), off in students' servers.
 INSTRUCTOR_TOOLS = ("formgrader", "course-list", "create-assignment")
+#: Server extensions off in students' servers (memory: issue 18's 150 MB per idle
+#: student): nbgrader's instructor side; jupyter_lsp (no language server is
+#: installed); jupytext (labs are notebooks: its JupyterLab plugin goes too);
+#: notebook_shim (for classic-notebook extensions: none here). What the labs use stays:
+#: nbgrader's Assignments tab and validate, terminals, the proxy for live 3D views.
+STUDENT_OFF = (
+    "nbgrader.server_extensions.formgrader",
+    "nbgrader.server_extensions.course_list",
+    "jupyter_lsp",
+    "jupyterlab_jupytext",
+    "notebook_shim",
+)
 #: A hang guard for a relay or a server to come up (a loaded machine is slow).
 START_TIMEOUT = 120.0
 
@@ -102,6 +117,8 @@ class SandboxSpawner(SimpleLocalProcessSpawner):  # type: ignore[misc]
 
     memory = Integer(Limits.memory, config=True, help="Address space of each process (bytes).")
     processes = Integer(Limits.processes, config=True, help="Processes and threads.")
+    cpus = Float(1.0, config=True, help="CPUs of a student's sandbox (its cgroup's quota).")
+    ram = Integer(1 << 30, config=True, help="Memory of a student's sandbox (bytes).")
     disk = Integer(Limits.disk, config=True, help="Size of the sandbox's /tmp (bytes).")
     run_dir = Unicode(
         str(ROOT / ".hub" / "run"), config=True, help="Host folder of per-student sockets."
@@ -115,12 +132,19 @@ class SandboxSpawner(SimpleLocalProcessSpawner):  # type: ignore[misc]
     _proc: subprocess.Popen[bytes] | None = None
     _network: Network | None = None
     _joined: subprocess.Popen[bytes] | None = None
+    _cgroup: Cgroup | None = None
     _relays: list[asyncio.AbstractServer]
     _private = ""  # the sandbox's generated files (autograder.sandbox.prepare)
     _server_pid = 0  # the sandbox's first process, seen from the hub
 
     def _limits(self) -> Limits:
-        return Limits(memory=self.memory, processes=self.processes, disk=self.disk)
+        return Limits(
+            memory=self.memory,
+            processes=self.processes,
+            disk=self.disk,
+            cpus=self.cpus,
+            ram=self.ram,
+        )
 
     async def _join_relay(self, listen: str, connect: str) -> subprocess.Popen[bytes]:
         assert self._network is not None
@@ -166,6 +190,7 @@ class SandboxSpawner(SimpleLocalProcessSpawner):  # type: ignore[misc]
             labconfig = config.parent / "labconfig"
             labconfig.mkdir(exist_ok=True)
             disabled = {f"@jupyter/nbgrader:{name}": True for name in INSTRUCTOR_TOOLS}
+            disabled["jupyterlab-jupytext"] = True
             (labconfig / "page_config.json").write_text(
                 json.dumps({"disabledExtensions": disabled})
             )
@@ -204,10 +229,7 @@ class SandboxSpawner(SimpleLocalProcessSpawner):  # type: ignore[misc]
             *(
                 []
                 if self.user.admin
-                else [
-                    f"--ServerApp.jpserver_extensions=nbgrader.server_extensions.{name}=False"
-                    for name in ("formgrader", "course_list")
-                ]
+                else [f"--ServerApp.jpserver_extensions={name}=False" for name in STUDENT_OFF]
             ),
             f"--config={self.jupyter_config}",
             f"--ServerApp.sock={RUN}/jupyter.sock",
@@ -221,10 +243,12 @@ class SandboxSpawner(SimpleLocalProcessSpawner):  # type: ignore[misc]
             env=env,
             limits=self._limits(),
             binds={HOME: home, RUN: server_dir, EXCHANGE: exchange},
+            label=f"hub-{self.user.name}",
         )
         launch.env.update(
             {k: v for k, v in env.items() if k.startswith("JUPYTERHUB_") or k == "JPY_API_TOKEN"}
         )
+        self._cgroup = launch.cgroup
         self._proc, self._server_pid = await asyncio.to_thread(
             start, launch, stdin=subprocess.DEVNULL
         )
@@ -248,6 +272,9 @@ class SandboxSpawner(SimpleLocalProcessSpawner):  # type: ignore[misc]
             if proc.poll() is None:
                 proc.kill()  # bwrap: the sandbox's PID namespace dies with it
             await asyncio.to_thread(proc.wait)
+        if self._cgroup is not None:  # now, not when its watcher runs: the hub may exit
+            await asyncio.to_thread(self._cgroup.remove)
+            self._cgroup = None
         for server in getattr(self, "_relays", []):
             server.close()
         self._relays = []

@@ -9,6 +9,8 @@ the environment:
   put a TLS-terminating web server in front of it for a real course).
 - ``ROSBOOK_HUB_LAB_ARGS``: extra options of every student's server (tests:
   ``--LabApp.expose_app_in_browser=True``).
+- ``ROSBOOK_HUB_CPUS`` and ``ROSBOOK_HUB_RAM_MB``: what each student's sandbox may
+  use in all (its cgroup's CPU quota and memory limit; default 1 CPU and 1024 MB).
 - ``ROSBOOK_HUB_DIR``: the hub's state: roster, database, cookie secret, each student's
   home (``home/NAME``) and sockets (default ``.hub/`` in the project).
 """
@@ -52,6 +54,8 @@ c.RosterAuthenticator.roster = str(state / "roster.json")
 c.JupyterHub.spawner_class = SandboxSpawner
 c.SandboxSpawner.home_dir_template = str(state / "home" / "{username}")
 c.SandboxSpawner.run_dir = str(state / "run")
+c.SandboxSpawner.cpus = float(os.environ.get("ROSBOOK_HUB_CPUS", "1"))
+c.SandboxSpawner.ram = int(os.environ.get("ROSBOOK_HUB_RAM_MB", "1024")) << 20
 c.Spawner.default_url = "/lab"
 c.Spawner.args = shlex.split(os.environ.get("ROSBOOK_HUB_LAB_ARGS", ""))
 c.Spawner.http_timeout = 180  # a loaded machine starts JupyterLab slowly

@@ -1,6 +1,8 @@
 """The kernel manager the grader and the self-check run notebooks with: sandboxed.
 
-Every kernel runs in a sandbox (``autograder/sandbox.py``): the notebook's folder is
+Every kernel runs in a sandbox (``autograder/sandbox.py``) with a cgroup of its own
+(``c.IpcKernelManager.cpus`` and ``.ram`` in the nbgrader config override its CPU quota
+and memory limit, ``Limits.cpus`` and ``Limits.ram`` by default): the notebook's folder is
 copied into the sandbox's home, and the kernel sees nothing of the grader's. It talks
 to the grader over Unix sockets (``ipc``; TCP would need the grader inside the
 sandbox's network): the kernel binds them in a small tmpfs of its own
@@ -17,6 +19,7 @@ the feedback page.
 
 from __future__ import annotations
 
+import asyncio
 import json
 import os
 import shutil
@@ -31,9 +34,9 @@ from jupyter_client import AsyncKernelManager
 from nbformat import NotebookNode
 from nbformat.v4 import new_output
 from nbgrader.preprocessors import Execute
-from traitlets import Bool, Integer, default
+from traitlets import Bool, Float, Integer, default
 
-from autograder import sandbox
+from autograder import cgroups, sandbox
 
 #: Inside the sandbox: where the kernel's sockets and connection file are.
 KERNEL_DIR = "/run/kernel"
@@ -59,8 +62,21 @@ class IpcKernelManager(AsyncKernelManager):
     sandbox_folder: str | None = None
     #: The sandbox's first process, by which a trusted process enters it (``enter_argv``).
     sandbox_pid: int | None = None
+    #: The sandbox's cgroup (None where cgroups cannot be made: ``autograder.cgroups``).
+    cgroup: cgroups.Cgroup | None = None
 
-    limits = sandbox.Limits()
+    cpus = Float(
+        sandbox.Limits.cpus, config=True, help="CPUs of each kernel's sandbox (its cgroup's quota)."
+    )
+    ram = Integer(
+        sandbox.Limits.ram,
+        config=True,
+        help="Memory of each kernel's sandbox (bytes; OOM past it).",
+    )
+
+    @property
+    def limits(self) -> sandbox.Limits:
+        return sandbox.Limits(cpus=self.cpus, ram=self.ram)
 
     @default("transport")
     def _transport_default(self) -> str:
@@ -113,6 +129,7 @@ class IpcKernelManager(AsyncKernelManager):
             limits=self.limits,
             tmpfs=[KERNEL_DIR],
             files={"/run/rosbook/kernel.json": inside_file},
+            label="kernel",
         )
         kw.update(
             env=launch.env,
@@ -121,6 +138,7 @@ class IpcKernelManager(AsyncKernelManager):
             stderr=subprocess.STDOUT,
             cwd="/",
         )
+        self.cgroup = launch.cgroup
         try:
             await super()._async_launch_kernel(launch.argv, **kw)
         finally:
@@ -138,6 +156,9 @@ class IpcKernelManager(AsyncKernelManager):
 
     async def _async_cleanup_resources(self, restart: bool = False) -> None:
         await super()._async_cleanup_resources(restart)
+        if self.cgroup is not None:  # the kernel has ended
+            await asyncio.to_thread(self.cgroup.remove)
+            self.cgroup = None
         if getattr(self, "_own_network", None) is not None:
             self._own_network.close()
             self._own_network = None

@@ -4,14 +4,16 @@ A sandbox is ``bwrap --unshare-all`` (its own user, PID, network, IPC, UTS, cgro
 mount namespaces) with ``--die-with-parent`` and ``--new-session``. Inside, the student
 is uid 1000 ("student") and sees only: the system's ``/usr`` (read-only), the Python
 installation and the venv (read-only), the project's ``rosbook/`` and
-``autograder/sandbox.py`` (read-only; never the judge's check parameters,
+``autograder/sandbox.py`` and ``cgroups.py`` (read-only; never the judge's check parameters,
 ``solutions/``, ``tests/``, gradebooks or other submissions), a
 private home and ``/tmp`` (tmpfs, ``Limits.disk`` bytes each), a copy of the notebook's
 folder in the home, and an environment built from an allow-list (``sandbox_env``).
 Limits on address space per process, processes (and threads), file size and disk are
 set inside the sandbox by ``python -m autograder.sandbox init`` before the command
-starts. Killing the ``bwrap`` process kills everything in the sandbox (its PID
-namespace dies with its first process).
+starts; the whole sandbox has a cgroup of its own (``autograder.cgroups``: a CPU quota,
+a memory limit that OOM-kills inside it only, ``pids.max``), joined by its first
+process before bwrap runs and removed when it ends. Killing the ``bwrap`` process
+kills everything in the sandbox (its PID namespace dies with its first process).
 
 When the grader runs as root (CI), the sandbox runs as ``nobody`` outside too, so the
 per-user process limit applies and a process that got out could signal nothing of the
@@ -61,6 +63,8 @@ from contextlib import contextmanager
 from dataclasses import asdict, dataclass
 from pathlib import Path
 
+from autograder import cgroups
+
 #: The project (this module runs inside sandboxes too: it imports nothing of the grader's).
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -101,9 +105,12 @@ class Limits:
     """What one sandbox may use."""
 
     memory: int = 2 << 30  # address space of each process (RLIMIT_AS)
-    processes: int = 512  # processes and threads of the student (RLIMIT_NPROC)
+    processes: int = 512  # processes and threads: of the student (RLIMIT_NPROC), and
+    # of the whole sandbox (its cgroup's pids.max)
     disk: int = 256 << 20  # the home and /tmp tmpfs, each
     output: int = 1 << 20  # bytes of output one notebook cell keeps (kernels.py)
+    cpus: float = 1.0  # CPU time of the whole sandbox per period (its cgroup's quota)
+    ram: int = 2 << 30  # memory of the whole sandbox (its cgroup's limit: OOM past it)
 
 
 def bwrap() -> str:
@@ -226,15 +233,19 @@ class Network:
         *,
         as_sandbox: bool = False,
         stages: Sequence[tuple[str, str]] = (),
+        cgroup: cgroups.Cgroup | None = None,
     ) -> list[str]:
         """``cmd`` run inside this network namespace (and nothing else of a sandbox).
 
         ``as_sandbox``: also become this network's owner (uid 0 of its user namespace,
         nobody outside when the grader is root): how sandboxes are started on it.
         ``stages``: (source, mount point) binds made first, as root, in a mount
-        namespace of the command's own.
+        namespace of the command's own. ``cgroup``: the command's first process joins
+        it before anything else.
         """
         own = [sys.executable, "-I", "-m", "autograder.sandbox", "join", str(self.pid)]
+        if cgroup is not None:
+            own += ["--cgroup", json.dumps([str(d) for d in cgroup.directories()])]
         if as_sandbox:
             own += ["--as-owner", "1"]
         if stages:
@@ -302,6 +313,7 @@ class Launch:
     env: dict[str, str]
     pass_fds: tuple[int, ...]  # close them (close_fds) once the process started
     info_fd: int  # read end of bwrap's --info-fd
+    cgroup: cgroups.Cgroup | None  # the sandbox's (None: none could be made here)
 
     def close_fds(self) -> None:
         for fd in self.pass_fds:
@@ -313,7 +325,8 @@ def _ro_sources() -> list[str]:
     paths = {"/usr", sys.prefix, sys.base_prefix, str(ROOT / "rosbook")}
     paths |= {str(ROOT / "launch"), str(ROOT / "launch_ros")}  # lab 6's launch files import them
     # Of the grader only what starts a sandbox: never the judge's hidden check parameters.
-    paths |= {str(ROOT / "autograder" / name) for name in ("__init__.py", "sandbox.py")}
+    starting = ("__init__.py", "sandbox.py", "cgroups.py")
+    paths |= {str(ROOT / "autograder" / name) for name in starting}
     real = Path(sys.executable).resolve()
     paths.add(str(real.parent.parent))  # the interpreter's installation
     for optional in ("/etc/alternatives", "/etc/fonts", "/etc/ld.so.cache", "/etc/localtime"):
@@ -368,6 +381,7 @@ def prepare(
     tmpfs: Sequence[str] = (),
     files: Mapping[str, str | os.PathLike[str]] | None = None,
     binds: Mapping[str, str | os.PathLike[str]] | None = None,
+    label: str = "sandbox",
 ) -> Launch:
     """The bwrap command line that runs ``cmd`` in a sandbox on ``network``.
 
@@ -376,7 +390,11 @@ def prepare(
     (``HOME/<its name>``), where ``cmd`` starts. ``tmpfs``: extra empty writable
     folders (e.g. for sockets). ``files``: host files bound read-only at inside paths.
     ``binds``: host folders bound writable at inside paths (a course hub student's own
-    home, over the private one).
+    home, over the private one). ``label``: the start of its cgroup's name.
+
+    The sandbox gets a cgroup of its own (``autograder.cgroups``: ``limits.cpus``,
+    ``limits.ram``, ``limits.processes``), joined by its first process before bwrap
+    runs, and removed once that process has ended (``sandbox_pid`` arranges it).
     """
     stages: list[tuple[str, str]] = []
     private.mkdir(parents=True, exist_ok=True)
@@ -447,20 +465,35 @@ def prepare(
         seed = _seed_copy(Path(seed), private / "seed" / Path(seed).name)
         argv += ro(seed, SEED)
         init += ["--seed", Path(seed).name]
+    group = cgroups.create(label, limits.cpus, limits.ram, limits.processes)
     read_end, write_end = os.pipe()
     argv += ["--chdir", "/", "--info-fd", str(write_end), "--"]
     argv += [sys.executable, "-I", "-m", "autograder.sandbox", *init, "--", *cmd]
     return Launch(
-        network.join_argv(argv, as_sandbox=True, stages=stages),
+        network.join_argv(argv, as_sandbox=True, stages=stages, cgroup=group),
         sandbox_env(env),
         (write_end,),
         read_end,
+        group,
     )
 
 
 def sandbox_pid(launch: Launch, proc: subprocess.Popen[bytes]) -> int:
-    """The sandbox's first process (PID 1 inside), once bwrap has set it up."""
-    return int(_read_info(launch.info_fd, proc, "starting the sandbox (bwrap)")["child-pid"])
+    """The sandbox's first process (PID 1 inside), once bwrap has set it up.
+
+    From then on the sandbox's cgroup goes once ``proc`` has ended (and at once if the
+    set-up failed).
+    """
+    try:
+        info = _read_info(launch.info_fd, proc, "starting the sandbox (bwrap)")
+    except BaseException:
+        if launch.cgroup is not None:
+            proc.kill()
+            launch.cgroup.remove()
+        raise
+    if launch.cgroup is not None:
+        launch.cgroup.remove_after(proc.pid)
+    return int(info["child-pid"])
 
 
 def start(launch: Launch, **popen: object) -> tuple[subprocess.Popen[bytes], int]:
@@ -470,6 +503,10 @@ def start(launch: Launch, **popen: object) -> tuple[subprocess.Popen[bytes], int
     """
     try:
         proc = subprocess.Popen(launch.argv, env=launch.env, pass_fds=launch.pass_fds, **popen)  # type: ignore[call-overload]
+    except BaseException:
+        if launch.cgroup is not None:
+            launch.cgroup.remove()
+        raise
     finally:
         launch.close_fds()
     return proc, sandbox_pid(launch, proc)
@@ -503,14 +540,18 @@ def _mount(source: str | None, target: str, flags: int) -> None:
         raise OSError(err, f"mount({source}, {target}): {os.strerror(err)}")
 
 
-def join(pid: int, as_owner: bool, stages: list[tuple[str, str]], cmd: list[str]) -> None:
-    """Enter the network namespace of ``pid`` (a ``Network``'s holder), then exec ``cmd``.
+def join(
+    pid: int, as_owner: bool, stages: list[tuple[str, str]], groups: list[str], cmd: list[str]
+) -> None:
+    """Join the cgroup folders ``groups`` (a sandbox's, before anything of it runs), enter
+    the network namespace of ``pid`` (a ``Network``'s holder), then exec ``cmd``.
 
     A trusted process joins the network only (root may; another user first enters the
     holder's user namespace, which it owns), and gets the network's ``/dev/shm``.
     ``as_owner`` (sandboxes): become uid 0 of the holder's user namespace, with no
     supplementary groups.
     """
+    cgroups.join(groups)
     # Fast DDS picks its ports by lock files in /dev/shm: whoever joins the network
     # works in the holder's mount namespace (a copy of it), where /dev/shm is shared.
     user, net, mnt = (os.open(f"/proc/{pid}/ns/{ns}", os.O_RDONLY) for ns in ("user", "net", "mnt"))
@@ -557,7 +598,9 @@ _NS_GET_PARENT = 0xB702  # ioctl: the user namespace a user namespace was made i
 
 def enter(pid: int, cwd: str, limits: Limits, cmd: list[str]) -> None:
     """Join every namespace of the sandbox whose first process is ``pid``, start ``cmd``
-    there as the student, pass it SIGINT and SIGTERM, and exit with its status."""
+    there as the student, in the sandbox's cgroup, pass it SIGINT and SIGTERM, and exit
+    with its status."""
+    cgroups.join_of(pid)
     namespaces = {
         ns: os.open(f"/proc/{pid}/ns/{ns}", os.O_RDONLY)
         for ns in ("net", "user", "ipc", "uts", "mnt", "pid")
@@ -627,7 +670,8 @@ def main(argv: list[str]) -> None:
     if own[0] == "join":
         options = dict(zip(own[2::2], own[3::2]))
         stages = [tuple(pair) for pair in json.loads(options.get("--stages", "[]"))]
-        join(int(own[1]), "--as-owner" in options, stages, cmd)  # type: ignore[arg-type]
+        groups = json.loads(options.get("--cgroup", "[]"))
+        join(int(own[1]), "--as-owner" in options, stages, groups, cmd)  # type: ignore[arg-type]
     elif own[0] == "enter":
         options = dict(zip(own[2::2], own[3::2]))
         enter(int(own[1]), options["--cwd"], Limits(**json.loads(options["--limits"])), cmd)

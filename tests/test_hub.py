@@ -24,7 +24,7 @@ import nbformat
 import pytest
 
 from autograder.config import ROOT
-from autograder.hub import add, process_tree, serve, stop
+from autograder.hub import COURSE, add, process_tree, serve, stop
 from rosbook.runtime.isolation import child_env
 from tests.labtools import answered
 from tests.test_jupyterlab import CELL_S, LAB, START_S, _index, _run_cell, _wait_for_notebook
@@ -180,9 +180,14 @@ def test_release_submit_grade_and_feedback(browser, hub, tmp_path: Path) -> None
     # the formgrader is the instructor's alone
     for name, page in pages.items():
         assert page.request.get(f"{url}/user/{name}/formgrader").status == 404, name
+        # the Assignments tab's API lists the lab; what the labs never use is not loaded
+        listed = page.request.get(f"{url}/user/{name}/assignments?course_id={COURSE}")
+        assert listed.status == 200 and LAB in listed.text(), (name, listed.text())
+        assert page.request.get(f"{url}/user/{name}/lsp/status").status == 404, name
     instructor = _log_in(browser, url, INSTRUCTOR, hub["passwords"][INSTRUCTOR])
     instructor.wait_for_url(f"**/user/{INSTRUCTOR}/lab**", timeout=START_S * 1000)
     assert instructor.request.get(f"{url}/user/{INSTRUCTOR}/formgrader").status == 200
+    assert instructor.request.get(f"{url}/user/{INSTRUCTOR}/lsp/status").status == 200
     instructor.context.close()
     for page in pages.values():
         page.context.close()
