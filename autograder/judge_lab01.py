@@ -130,9 +130,13 @@ def published_on_sim_time(
 def _ack(text: str) -> dict[str, Any]:
     try:
         ack = json.loads(text)
-        return {"now": int(ack["now"]), "published": dict(ack["published"])}
+        return {
+            "now": int(ack["now"]),
+            "published": dict(ack["published"]),
+            "feedback_at": [int(t) for t in ack.get("feedback_at", [])],
+        }
     except (ValueError, KeyError, TypeError):
-        return {"now": -1, "published": {}}
+        return {"now": -1, "published": {}, "feedback_at": []}
 
 
 def check_counter_publisher(j: Judgement) -> None:
