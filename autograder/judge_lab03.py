@@ -66,8 +66,8 @@ def _judge_call_trigger(self, function, service, timeout_s, deadline_s, server_u
             return
     student = get_ipython().user_ns[function]
     outcome = run_with_deadline(lambda: student(node, service, timeout_s), deadline_s)
-    unblocked = not outcome.finished and ros.spin_until(
-        lambda: outcome.finished, node, timeout=1.0)
+    finished = outcome.finished
+    unblocked = not finished and ros.spin_until(lambda: outcome.finished, node, timeout=1.0)
     value = outcome.value
     shown = self._plain(value)
     if hasattr(value, "get_fields_and_field_types"):
@@ -76,7 +76,7 @@ def _judge_call_trigger(self, function, service, timeout_s, deadline_s, server_u
             shown["fields"] = fields
     error = outcome.error
     self._answer({
-        "discovered": True, "finished": outcome.finished, "unblocked": bool(unblocked),
+        "discovered": True, "finished": finished, "unblocked": bool(unblocked),
         "raised": None if error is None else [type(error).__name__, str(error)[:300]],
         "value": shown, "seconds": outcome.seconds,
     })

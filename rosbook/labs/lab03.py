@@ -113,13 +113,12 @@ def _trigger_call(
                 node.destroy_client(seen)
         outcome = run_with_deadline(lambda: call_trigger(node, service, timeout_s), deadline_s)
         where = f"call_trigger(node, {service!r}, {timeout_s})"
+        finished = outcome.finished
         # Spinning the node ourselves delivers a response a blocked call() waits for.
-        unblocked = not outcome.finished and ros.spin_until(
-            lambda: outcome.finished, node, timeout=1.0
-        )
+        unblocked = not finished and ros.spin_until(lambda: outcome.finished, node, timeout=1.0)
         error = outcome.error
         raised = None if error is None else (type(error).__name__, str(error))
-        assert_trigger_returned(where, deadline_s, outcome.finished, unblocked, raised)
+        assert_trigger_returned(where, deadline_s, finished, unblocked, raised)
         return outcome.value, outcome.seconds
     finally:
         ros.remove(node)
