@@ -77,6 +77,16 @@ def _judge_scans_until(self, count, guard):
                   for m in self.collected])
 
 
+def _judge_scan_matched(self, guard):
+    # until the subscription met the judge's publisher from its side too (a best-effort
+    # message sent before that is lost)
+    import time
+    end = time.monotonic() + guard
+    while self.made.get_publisher_count() == 0 and time.monotonic() < end:
+        self.executor.spin_once(timeout_sec=0.01)
+    self._answer(self.made.get_publisher_count())
+
+
 def _judge_qos_pairs(self, function, pairs):
     from rclpy.duration import Duration
     from rclpy.qos import (DurabilityPolicy, HistoryPolicy, LivelinessPolicy, QoSProfile,
@@ -105,6 +115,7 @@ def _judge_qos_pairs(self, function, pairs):
 _RosbookJudgeAgent.with_node = _judge_with_node
 _RosbookJudgeAgent.publish_strings = _judge_publish_strings
 _RosbookJudgeAgent.scans_until = _judge_scans_until
+_RosbookJudgeAgent.scan_matched = _judge_scan_matched
 _RosbookJudgeAgent.qos_pairs = _judge_qos_pairs
 """
 
@@ -175,12 +186,16 @@ def check_scan_subscription(j: Judgement) -> None:
         base = random.SystemRandom().randrange(1, 4096) / 8  # exact in float32
         received: list[Any] = []
         with qos_checks.sensor_publisher(asked) as publisher:
+            if not j.kernel.call("scan_matched", EVENT_GUARD_S):
+                raise JudgeTimeout(f"node '{node_name}' did not meet the judge's lidar")
             guard = EVENT_GUARD_S  # in lockstep: each scan is waited for, until one is lost
             for index in range(count):
                 publisher.publish(qos_checks.make_scan(index, base))
                 received = j.kernel.call("scans_until", index + 1, guard)
                 if len(received) <= index:
                     guard = 0.1
+            if len(received) < count:  # stragglers, after a loss
+                received = j.kernel.call("scans_until", count, 1.0)
         qos_checks.assert_scans_received([(k, r) for k, r in received], count, base)
         if len(received) < at_least:
             raise CheckFailed(

@@ -294,9 +294,11 @@ def test_an_attack_on_labs_2_and_3_earns_no_point_and_is_told_the_judges_finding
     lab, rows, out = graded_lab
     r = rows[(attack, lab)]
     assert float(r["score"]) <= EARNED[lab], r
+    assert r["status"] == "tampered", r
     if attack == "input_transformer":
         return  # every cell was `pass`: nothing was defined, nothing to tell
-    assert r["status"] == "tampered", r
+    if lab == "lab02_qos" and attack != "test_cells_transformed":
+        return  # lab 2's map cell asserts on what the (mocked) check returned: it fails
     page = html.unescape(re.sub(r"<[^>]+>", "", feedback(out, attack, lab)))
     assert "Checks that passed only inside your notebook" in page
     cell, told = TOLD[lab]
