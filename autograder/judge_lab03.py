@@ -1,10 +1,14 @@
 """Lab 3's checks as the judge runs them: verdicts from service calls and what they return.
 
-The student's server runs in the kernel, spun by the agent while the judge holds
-``/clock`` at the time it wants and calls the service from its own node: the answer is
-the judge's to read. The student's client function is called by the agent against a
-server of the judge's own, whose answer carries a nonce: only a real call can return it,
-and only the judge counts the calls. The messages are those of ``rosbook.labs.lab03``.
+The student's nodes run in the kernel, following the judge's ``/clock`` in lockstep
+(``RemoteClock``); the judge calls their service, sends goals to their action, sets their
+parameters and listens to their topic from nodes of its own, so every answer is the
+judge's to read. One thing is the kernel's word: the simulated time at which each action
+feedback was sent (it may be sent while the judge holds a time), used for the pacing
+only; the feedback, the result and the status are what arrived. The student's client
+function is called by the agent against a server of the judge's own whose answer carries
+a nonce: only a real call can return it, and only the judge counts the calls. The
+messages are those of ``rosbook.labs.lab03``, which the in-kernel checks share.
 """
 
 from __future__ import annotations
@@ -185,16 +189,21 @@ FOREVER_S = 1e6
 
 @contextmanager
 def remote_clock(j: Judgement, name: str) -> Iterator[RemoteClock]:
-    """A ``RemoteClock`` for node ``name`` for the time of the block; an exception its
-    callbacks raised comes out as a ``KernelError`` (which takes precedence: it is why)."""
+    """A ``RemoteClock`` for node ``name`` for the time of the block. The kernel's
+    following always ends with it; an exception the node's callbacks raised there comes
+    out as a ``KernelError``, which wins over what the judge saw of it (it says why)."""
     clock = RemoteClock(j, name)
     try:
         yield clock
-    except AssertionError:
-        clock.finish()  # a KernelError, if the node failed, says more than what the judge saw
+    except BaseException:
+        try:
+            clock.finish()
+        except KernelError:
+            raise
+        except Exception:  # noqa: S110 - what the block raised says more
+            pass
         raise
-    else:
-        clock.finish()
+    clock.finish()
 
 
 def _raised_in_kernel(exc: KernelError, name: str) -> str:
