@@ -500,8 +500,10 @@ def serve() -> None:
                     started = time.monotonic()
                     verdict = judge_one(json.loads(line), kernels)
                     took = time.monotonic() - started
+                    said = f": {verdict.message.splitlines()[0][:300]}" if verdict.message else ""
                     print(
-                        f"[judge] {verdict.grade_id}: {verdict.passed} in {took:.2f} s", flush=True
+                        f"[judge] {verdict.grade_id}: {verdict.passed} in {took:.2f} s{said}",
+                        flush=True,
                     )
                     verdicts.write(json.dumps(asdict(verdict)) + "\n")
         finally:
