@@ -45,6 +45,9 @@ from rosbook.runtime.session import ros
 
 #: Wall-clock seconds after which an unanswered /clock step is published again.
 CLOCK_RETRY_S = 0.2
+#: Hang guard of each lockstep wait (discovery of the judge's nodes, a step's ack, its
+#: messages' arrival): generous, a loaded machine takes seconds to discover a node.
+LOCKSTEP_GUARD_S = 3 * EVENT_GUARD_S
 
 #: The agent's methods for lab 3 (see ``judge.AGENT``).
 AGENT_LAB03 = r"""
@@ -116,16 +119,21 @@ class RemoteClock:
         )
         self.arrived: Callable[[dict[str, int]], bool] = lambda published: True
         self.t = 0.0
+        # the student's node's own subscription (the judge's nodes on sim time have theirs)
         wait_for(
-            lambda: self.clock.get_subscription_count() > 0,
+            lambda: any(
+                e.node_name == name for e in self.node.get_subscriptions_info_by_topic("/clock")
+            ),
             self.node,
             what=f"node '{name}' does not listen to /clock",
+            guard=LOCKSTEP_GUARD_S,
         )
         self.following = self.kernel.send("follow_clock", FOREVER_S, HOLD_GUARD_S)
         wait_for(
             lambda: self.acks.get_publisher_count() > 0 and self.acked[-1]["now"] >= 0,
             self.node,
             what=f"node '{name}' did not start on /clock",
+            guard=LOCKSTEP_GUARD_S,
         )
 
     @property
@@ -145,7 +153,7 @@ class RemoteClock:
     def _hold(self, t: float, nodes: tuple[Node, ...]) -> None:
         target = int(round(t * 1e9))
         watched = (*nodes, self.node) if nodes else ()
-        deadline = time.monotonic() + EVENT_GUARD_S
+        deadline = time.monotonic() + LOCKSTEP_GUARD_S
         # a /clock message to a best-effort subscription can be lost: sent again until acked
         while True:
             self.clock.publish(clock_message(t))
@@ -156,7 +164,7 @@ class RemoteClock:
             if time.monotonic() > deadline:
                 raise JudgeTimeout(f"node '{self.name}' did not follow /clock to t = {t:g} s")
         published = self.acked[-1]["published"]
-        if not ros.spin_until(lambda: self.arrived(published), *watched, timeout=EVENT_GUARD_S):
+        if not ros.spin_until(lambda: self.arrived(published), *watched, timeout=LOCKSTEP_GUARD_S):
             raise JudgeTimeout(f"what node '{self.name}' sent at t = {t:g} s did not arrive")
 
     def finish(self) -> None:
@@ -278,6 +286,7 @@ def _goal(clock: RemoteClock, order: int, cancel_after: int | None = None) -> Go
         lambda: len(clock.acked[-1]["feedback_at"]) >= before + len(run.feedback),
         clock.node,
         what="the kernel did not say when it sent the feedback",
+        guard=LOCKSTEP_GUARD_S,
     )
     sent_at = clock.acked[-1]["feedback_at"][before : before + len(run.feedback)]
     run.feedback_times = [t / 1e9 for t in sent_at]
