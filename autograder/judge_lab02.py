@@ -120,6 +120,11 @@ _RosbookJudgeAgent.qos_pairs = _judge_qos_pairs
 """
 
 
+#: Hang guard of a wait for a match across processes (or the event that says it never
+#: comes): generous, the wait ends as soon as either happens.
+MATCH_GUARD_S = 3 * EVENT_GUARD_S
+
+
 def with_node(
     j: Judgement, function: str, node_name: str, call: str, *, collect: bool = False
 ) -> dict[str, Any]:
@@ -171,7 +176,7 @@ def check_map_publisher(j: Judgement) -> None:
         j.wait_on_graph(node_name, "/map", "publisher")
         offered = endpoint_qos(node_name, "/map", "publisher")
         j.kernel.call("publish_strings", maps)
-        qos_checks.late_joiner_receives(maps, offered)
+        qos_checks.late_joiner_receives(maps, offered, guard=MATCH_GUARD_S)
 
 
 def check_scan_subscription(j: Judgement) -> None:
@@ -185,7 +190,7 @@ def check_scan_subscription(j: Judgement) -> None:
         asked = endpoint_qos(node_name, "/scan", "subscription")
         base = random.SystemRandom().randrange(1, 4096) / 8  # exact in float32
         received: list[Any] = []
-        with qos_checks.sensor_publisher(asked) as publisher:
+        with qos_checks.sensor_publisher(asked, guard=MATCH_GUARD_S) as publisher:
             if not j.kernel.call("scan_matched", EVENT_GUARD_S):
                 raise JudgeTimeout(f"node '{node_name}' did not meet the judge's lidar")
             guard = EVENT_GUARD_S  # in lockstep: each scan is waited for, until one is lost

@@ -101,10 +101,16 @@ def assert_late_joiner_gets_last(
 
 
 def late_joiner_receives(
-    maps: Sequence[str], offered: QoSProfile, joiner_qos: QoSProfile = LATE_JOINER_QOS
+    maps: Sequence[str],
+    offered: QoSProfile,
+    joiner_qos: QoSProfile = LATE_JOINER_QOS,
+    guard: float = MATCH_TIMEOUT_S,
 ) -> list[str]:
     """Subscribe to /map once ``maps`` were published by a publisher offering ``offered``
-    (in this process or another): the last must arrive. Returns what arrived."""
+    (in this process or another): the last must arrive. Returns what arrived.
+
+    ``guard`` bounds the waits for the match (or an incompatible-QoS event) and for the
+    message: both end as soon as what they wait for happens."""
     events: list[str] = []
     got: list[str] = []
     joiner = Node("late_joiner")
@@ -120,7 +126,7 @@ def late_joiner_receives(
     ros.spin_until(
         lambda: subscription.get_publisher_count() > 0 or bool(events),
         joiner,
-        timeout=MATCH_TIMEOUT_S,
+        timeout=guard,
     )
     if events or subscription.get_publisher_count() == 0:
         if offered.durability != DurabilityPolicy.TRANSIENT_LOCAL:
@@ -135,8 +141,7 @@ def late_joiner_receives(
             f"({describe(offered)}); incompatible policy reported: "
             f"{', '.join(events) or 'none'}. A late joiner asks for RELIABLE delivery."
         )
-    # a bound against a hang only: a publisher that keeps the message delivers it at once
-    ros.spin_until(lambda: maps[-1] in got, joiner, timeout=MATCH_TIMEOUT_S)
+    ros.spin_until(lambda: maps[-1] in got, joiner, timeout=guard)
     ros.spin_for(0.05, joiner)
     ros.remove(joiner)
     if not got:
@@ -190,10 +195,13 @@ def assert_receives_sensor_data(
 
 @contextmanager
 def sensor_publisher(
-    asked: QoSProfile, sensor_qos: QoSProfile = qos_profile_sensor_data
+    asked: QoSProfile,
+    sensor_qos: QoSProfile = qos_profile_sensor_data,
+    guard: float = MATCH_TIMEOUT_S,
 ) -> Iterator[Publisher]:
     """A LaserScan publisher on /scan with ``sensor_qos``, once it met the subscription
-    that asked for ``asked`` (in this process or another); gone afterwards."""
+    that asked for ``asked`` (in this process or another; ``guard`` bounds the wait for
+    the match or an incompatible-QoS event); gone afterwards."""
     events: list[str] = []
     sensor = Node("lidar_driver")
     try:
@@ -208,7 +216,7 @@ def sensor_publisher(
         ros.spin_until(
             lambda: publisher.get_subscription_count() > 0 or bool(events),
             sensor,
-            timeout=MATCH_TIMEOUT_S,
+            timeout=guard,
         )
         if events or publisher.get_subscription_count() == 0:
             if asked.reliability == ReliabilityPolicy.RELIABLE:
