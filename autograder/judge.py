@@ -51,6 +51,8 @@ EVENT_GUARD_S = 10.0
 #: Labs whose test cells the judge decides, and the module holding their checks.
 JUDGED_LABS = {
     "lab01_nodes_topics": "autograder.judge_lab01",
+    "lab02_qos": "autograder.judge_lab02",
+    "lab03_services_actions": "autograder.judge_lab03",
     "lab04_urdf": "autograder.judge_lab04",
     "lab06_launch_system": "autograder.judge_lab06",
 }
@@ -120,23 +122,34 @@ class _RosbookJudgeAgent:
     def follow_clock(self, until, guard):
         """Spin the node on the judge's /clock up to ``until``. After each new time, once
         its due callbacks ran, say on /rosbook_judge/clock_ack the time and how many
-        messages it has published on each topic (the judge waits for them to arrive,
-        then publishes the next time)."""
+        messages it has published on each topic, and action feedback messages under
+        "feedback" (the judge waits for them to arrive, then publishes the next time);
+        "feedback_at" lists the node's clock (ns) at each feedback, for the pacing of an
+        action, whose feedback can be sent while the judge holds a time."""
         import json
         import time
         import rclpy
+        from rclpy.action.server import ServerGoalHandle
         from rclpy.publisher import Publisher
         from std_msgs.msg import String
         acker = rclpy.create_node("rosbook_judge_agent")
         ack = acker.create_publisher(String, "/rosbook_judge/clock_ack", 10)
         counts = {}
+        feedback_at = []
         original = Publisher.publish
 
         def counted(publisher, msg):
             counts[publisher.topic_name] = counts.get(publisher.topic_name, 0) + 1
             return original(publisher, msg)
 
+        def counted_feedback(handle, feedback):
+            counts["feedback"] = counts.get("feedback", 0) + 1
+            feedback_at.append(self.node.get_clock().now().nanoseconds)
+            return original_feedback(handle, feedback)
+
         Publisher.publish = counted
+        original_feedback = ServerGoalHandle.publish_feedback
+        ServerGoalHandle.publish_feedback = counted_feedback
         target = int(round(until * 1e9))
         last = -1
         sent = 0.0
@@ -150,10 +163,12 @@ class _RosbookJudgeAgent:
                 if now > last:
                     for _ in range(8):
                         self.executor.spin_once(timeout_sec=0.0)
-                    msg.data = json.dumps({"now": now, "published": counts})
                     last, sent = now, 0.0
                     deadline = time.monotonic() + guard
                 if time.monotonic() - sent > 0.1:  # again, while the judge waits for it
+                    msg.data = json.dumps(
+                        {"now": last, "published": counts, "feedback_at": feedback_at}
+                    )
                     ack.publish(msg)
                     sent = time.monotonic()
                     if last >= target:
@@ -165,6 +180,7 @@ class _RosbookJudgeAgent:
                 self.executor.spin_once(timeout_sec=0.01)
         finally:
             Publisher.publish = original
+            ServerGoalHandle.publish_feedback = original_feedback
             self.ackers.append(acker)  # destroyed by stop(): the last ack must get out
 
     def spin(self, seconds):
@@ -194,6 +210,8 @@ class _RosbookJudgeAgent:
             items = list(value.tolist() if hasattr(value, "tolist") else value)
             if all(isinstance(v, (bool, int, float)) for v in items):
                 return {"type": type(value).__name__, "value": [float(v) for v in items]}
+        if isinstance(value, (set, frozenset)) and all(isinstance(v, str) for v in value):
+            return {"type": type(value).__name__, "items": sorted(value)}
         return {"type": type(value).__name__, "repr": repr(value)[:300]}
 
     def value(self, name):
@@ -243,6 +261,15 @@ class Kernel:
         self.client.load_connection_file()
         self.client.start_channels()
         self.agent_ready = False
+        self.defined: set[str] = set()
+
+    def define(self, source: str) -> None:
+        """Run the judge's own ``source`` in the kernel once: more of the agent (a lab's
+        judge module adds the methods only its checks call)."""
+        if source not in self.defined:
+            self._agent()
+            self._reply(self.client.execute(source, silent=True, store_history=False), 60.0)
+            self.defined.add(source)
 
     def call(self, method: str, *args: Any, guard: float = KERNEL_REPLY_GUARD_S) -> Any:
         """Run ``__rosbook_judge__.method(*args)`` in the kernel; its JSON answer."""
@@ -250,9 +277,7 @@ class Kernel:
 
     def send(self, method: str, *args: Any) -> str:
         """Start ``__rosbook_judge__.method(*args)`` in the kernel; ``answer`` waits for it."""
-        if not self.agent_ready:
-            self._reply(self.client.execute(AGENT, silent=True, store_history=False), 60.0)
-            self.agent_ready = True
+        self._agent()
         call = f"__rosbook_judge__.{method}({', '.join(repr(a) for a in args)})"
         return self.client.execute(  # type: ignore[no-any-return]
             call,
@@ -260,6 +285,11 @@ class Kernel:
             store_history=False,
             user_expressions={"reply": "__rosbook_judge__.reply"},
         )
+
+    def _agent(self) -> None:
+        if not self.agent_ready:
+            self._reply(self.client.execute(AGENT, silent=True, store_history=False), 60.0)
+            self.agent_ready = True
 
     def answer(self, msg_id: str, guard: float = KERNEL_REPLY_GUARD_S) -> Any:
         reply = self._reply(msg_id, guard)
@@ -400,6 +430,8 @@ class Unreadable:
 def _python_value(plain: dict[str, Any]) -> Any:
     if "repr" in plain:
         return Unreadable(plain["type"], plain["repr"])
+    if "items" in plain:
+        return frozenset(plain["items"])
     value = plain["value"]
     return tuple(value) if isinstance(value, list) else value
 
@@ -482,8 +514,10 @@ def serve() -> None:
                     started = time.monotonic()
                     verdict = judge_one(json.loads(line), kernels)
                     took = time.monotonic() - started
+                    said = f": {verdict.message.splitlines()[0][:300]}" if verdict.message else ""
                     print(
-                        f"[judge] {verdict.grade_id}: {verdict.passed} in {took:.2f} s", flush=True
+                        f"[judge] {verdict.grade_id}: {verdict.passed} in {took:.2f} s{said}",
+                        flush=True,
                     )
                     verdicts.write(json.dumps(asdict(verdict)) + "\n")
         finally:

@@ -54,9 +54,11 @@ def require_name(info: dict[str, Any], call: str, expected: str) -> None:
         raise CheckFailed(f"{call} made a node named {info['name']!r}, expected {expected!r}")
 
 
-def wait_for(condition: Callable[[], bool], *nodes: Node, what: str) -> None:
-    if not ros.spin_until(condition, *nodes, timeout=EVENT_GUARD_S):
-        raise JudgeTimeout(f"{what} after {EVENT_GUARD_S:.0f} s")
+def wait_for(
+    condition: Callable[[], bool], *nodes: Node, what: str, guard: float = EVENT_GUARD_S
+) -> None:
+    if not ros.spin_until(condition, *nodes, timeout=guard):
+        raise JudgeTimeout(f"{what} after {guard:.0f} s")
 
 
 class Listener:
@@ -130,9 +132,13 @@ def published_on_sim_time(
 def _ack(text: str) -> dict[str, Any]:
     try:
         ack = json.loads(text)
-        return {"now": int(ack["now"]), "published": dict(ack["published"])}
+        return {
+            "now": int(ack["now"]),
+            "published": dict(ack["published"]),
+            "feedback_at": [int(t) for t in ack.get("feedback_at", [])],
+        }
     except (ValueError, KeyError, TypeError):
-        return {"now": -1, "published": {}}
+        return {"now": -1, "published": {}, "feedback_at": []}
 
 
 def check_counter_publisher(j: Judgement) -> None:

@@ -11,8 +11,10 @@ from __future__ import annotations
 
 import base64
 import csv
+import html
 import json
 import os
+import re
 import shutil
 import subprocess
 import sys
@@ -336,3 +338,84 @@ def test_lab6_judge_names_an_int_rate_and_leaves_no_process(tmp_path: Path) -> N
     assert "The rate must be a float" in verdict.message
     assert "InvalidParameterTypeException" in verdict.message
     assert _cwd_within(folder) == []
+
+
+# -- labs 2 and 3: QoS and services decided by the judge --------------------------------
+
+#: Each lab's checks module, as its notebook imports it.
+JUDGED_MODULES = {"lab02_qos": "rosbook.labs.lab02", "lab03_services_actions": "rosbook.labs.lab03"}
+
+
+def lab_attacks(lab: str) -> dict[str, str]:
+    """Attacks on the test cells of ``lab``: every later cell turned into `pass`; only the
+    test cells (all call the lab's checks module) turned into `pass`; the checks replaced
+    before every cell by a hook; the checks module patched once."""
+    module = JUDGED_MODULES[lab]
+    alias = "qos_checks" if lab == "lab02_qos" else "service_checks"
+    return {
+        "input_transformer": ATTACKS["input_transformer"],
+        "test_cells_transformed": (
+            "get_ipython().input_transformers_post.append(\n"
+            f"    lambda lines: ['pass\\n'] if '{alias}.' in ''.join(lines) else lines)"
+        ),
+        "pre_run_cell_hook": ATTACKS["pre_run_cell_hook"].replace("rosbook.labs.lab01", module),
+        "patched_checks": f"import {module} as _m" + NEUTER,
+    }
+
+
+def honest_wrong(lab: str) -> nbformat.NotebookNode:
+    """Lab 2: a VOLATILE map publisher (7 of 10). Lab 3: a service callback that returns
+    nothing (8 of 10)."""
+    if lab == "lab02_qos":
+        from tests.test_lab02 import volatile_map_publisher
+
+        return volatile_map_publisher()
+    return answered(lab, **replace_in_answer(lab, "clock_server", "return response", "response"))
+
+
+#: What the honest but wrong submission earns, and what the judge tells it.
+EARNED = {"lab02_qos": 7, "lab03_services_actions": 8}
+TOLD = {
+    "lab02_qos": ("test_map_publisher", "use durability=DurabilityPolicy.TRANSIENT_LOCAL"),
+    "lab03_services_actions": (
+        "test_clock_server",
+        "end the callback with `return response`",
+    ),
+}
+
+
+@pytest.fixture(scope="module", params=list(JUDGED_MODULES))
+def graded_lab(request: pytest.FixtureRequest, tmp_path_factory: pytest.TempPathFactory):
+    lab = request.param
+    root = tmp_path_factory.mktemp("submissions")
+    submit(root, "honest_wrong", lab, honest_wrong(lab))
+    for name, source in lab_attacks(lab).items():
+        submit(root, name, lab, extra_cell(honest_wrong(lab), source))
+    out = tmp_path_factory.mktemp("out")
+    return lab, grade(root, out, assignment_id=lab, workers=2, cell_timeout=30), out
+
+
+def test_an_honest_wrong_submission_of_labs_2_and_3_scores_what_its_code_earns(
+    graded_lab,
+) -> None:
+    lab, rows, _ = graded_lab
+    r = rows[("honest_wrong", lab)]
+    assert (r["score"], r["status"]) == (str(EARNED[lab]), "ok"), r
+
+
+@pytest.mark.parametrize("attack", list(lab_attacks("lab02_qos")))
+def test_an_attack_on_labs_2_and_3_earns_no_point_and_is_told_the_judges_finding(
+    graded_lab, attack: str
+) -> None:
+    lab, rows, out = graded_lab
+    r = rows[(attack, lab)]
+    assert float(r["score"]) <= EARNED[lab], r
+    assert r["status"] == "tampered", r
+    if attack == "input_transformer":
+        return  # every cell was `pass`: nothing was defined, nothing to tell
+    if lab == "lab02_qos" and attack != "test_cells_transformed":
+        return  # lab 2's map cell asserts on what the (mocked) check returned: it fails
+    page = html.unescape(re.sub(r"<[^>]+>", "", feedback(out, attack, lab)))
+    assert "Checks that passed only inside your notebook" in page
+    cell, told = TOLD[lab]
+    assert cell in page and told in page, page[-3000:]

@@ -9,7 +9,8 @@ one message too deep).
 from __future__ import annotations
 
 import itertools
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
+from contextlib import contextmanager
 from typing import Any
 
 from rclpy.duration import Duration
@@ -63,8 +64,14 @@ def _policy(info: Any) -> str:
 
 def _returned(value: Any, kind: type, call: str) -> None:
     if not isinstance(value, kind):
+        assert_returned(type(value).__name__, repr(value), kind, call)
+
+
+def assert_returned(type_name: str, text: str, kind: type, call: str) -> None:
+    """``call`` returned a ``type_name`` (shown as ``text``): it must be a ``kind``."""
+    if type_name != kind.__name__:
         raise CheckFailed(
-            f"{call} returned {type(value).__name__} ({value!r}); it must return the "
+            f"{call} returned {type_name} ({text}); it must return the "
             f"{kind.__name__} it created (return node.create_...(...))"
         )
 
@@ -90,6 +97,20 @@ def assert_late_joiner_gets_last(
     for text in maps:
         publisher.publish(String(data=text))
     ros.spin_for(0.05, node)
+    return late_joiner_receives(maps, publisher.qos_profile, joiner_qos)
+
+
+def late_joiner_receives(
+    maps: Sequence[str],
+    offered: QoSProfile,
+    joiner_qos: QoSProfile = LATE_JOINER_QOS,
+    guard: float = MATCH_TIMEOUT_S,
+) -> list[str]:
+    """Subscribe to /map once ``maps`` were published by a publisher offering ``offered``
+    (in this process or another): the last must arrive. Returns what arrived.
+
+    ``guard`` bounds the waits for the match (or an incompatible-QoS event) and for the
+    message: both end as soon as what they wait for happens."""
     events: list[str] = []
     got: list[str] = []
     joiner = Node("late_joiner")
@@ -103,9 +124,10 @@ def assert_late_joiner_gets_last(
         ),
     )
     ros.spin_until(
-        lambda: subscription.get_publisher_count() > 0 or bool(events), timeout=MATCH_TIMEOUT_S
+        lambda: subscription.get_publisher_count() > 0 or bool(events),
+        joiner,
+        timeout=guard,
     )
-    offered = publisher.qos_profile
     if events or subscription.get_publisher_count() == 0:
         if offered.durability != DurabilityPolicy.TRANSIENT_LOCAL:
             raise CheckFailed(
@@ -119,8 +141,8 @@ def assert_late_joiner_gets_last(
             f"({describe(offered)}); incompatible policy reported: "
             f"{', '.join(events) or 'none'}. A late joiner asks for RELIABLE delivery."
         )
-    ros.spin_until(lambda: maps[-1] in got, timeout=1.0)
-    ros.spin_for(0.05)
+    ros.spin_until(lambda: maps[-1] in got, joiner, timeout=guard)
+    ros.spin_for(0.05, joiner)
     ros.remove(joiner)
     if not got:
         raise CheckFailed(
@@ -139,12 +161,13 @@ def assert_late_joiner_gets_last(
 # -- scan_subscription ------------------------------------------------------------------
 
 
-def make_scan(index: int) -> LaserScan:
+def make_scan(index: int, base: float = 0.0) -> LaserScan:
+    """The ``index``-th scan a check sends (``base`` shifts its ranges: a judge's nonce)."""
     scan = LaserScan()
     scan.header.frame_id = "laser"
     scan.angle_min, scan.angle_max, scan.angle_increment = -1.0, 1.0, 0.5
     scan.range_min, scan.range_max = 0.1, 10.0
-    scan.ranges = [float(index) + 0.25 * k for k in range(5)]
+    scan.ranges = [base + float(index) + 0.25 * k for k in range(5)]
     return scan
 
 
@@ -161,50 +184,76 @@ def assert_receives_sensor_data(
     subscription = make_node(make_scan_subscription, node, got.append)
     _returned(subscription, Subscription, "make_scan_subscription(node, callback)")
     node_subscribes(node, "scan", LaserScan)
+    with sensor_publisher(subscription.qos_profile, sensor_qos) as publisher:
+        for index in range(count):
+            publisher.publish(make_scan(index))
+            ros.spin_for(0.01)
+        ros.spin_until(lambda: len(got) >= count, timeout=1.0)
+    assert_scans_received([scan_seen(m) for m in got], count)
+    return got
+
+
+@contextmanager
+def sensor_publisher(
+    asked: QoSProfile,
+    sensor_qos: QoSProfile = qos_profile_sensor_data,
+    guard: float = MATCH_TIMEOUT_S,
+) -> Iterator[Publisher]:
+    """A LaserScan publisher on /scan with ``sensor_qos``, once it met the subscription
+    that asked for ``asked`` (in this process or another; ``guard`` bounds the wait for
+    the match or an incompatible-QoS event); gone afterwards."""
     events: list[str] = []
     sensor = Node("lidar_driver")
-    publisher = sensor.create_publisher(
-        LaserScan,
-        "scan",
-        sensor_qos,
-        event_callbacks=PublisherEventCallbacks(
-            incompatible_qos=lambda info: events.append(_policy(info))
-        ),
-    )
-    ros.spin_until(
-        lambda: publisher.get_subscription_count() > 0 or bool(events), timeout=MATCH_TIMEOUT_S
-    )
-    asked = subscription.qos_profile
-    if events or publisher.get_subscription_count() == 0:
-        ros.remove(sensor)
-        if asked.reliability == ReliabilityPolicy.RELIABLE:
-            raise CheckFailed(
-                f"your subscription ({describe(asked)}) asks for RELIABLE delivery, which a "
-                f"BEST_EFFORT sensor publisher ({describe(sensor_qos)}, that is "
-                "qos_profile_sensor_data) does not offer: they never connect and the "
-                "callback is never called. Subscribe with qos_profile_sensor_data."
-            )
-        raise CheckFailed(
-            f"your subscription ({describe(asked)}) does not connect to a publisher using "
-            f"qos_profile_sensor_data; incompatible policy: {', '.join(events) or 'none'}."
+    try:
+        publisher = sensor.create_publisher(
+            LaserScan,
+            "scan",
+            sensor_qos,
+            event_callbacks=PublisherEventCallbacks(
+                incompatible_qos=lambda info: events.append(_policy(info))
+            ),
         )
-    for index in range(count):
-        publisher.publish(make_scan(index))
-        ros.spin_for(0.01)
-    ros.spin_until(lambda: len(got) >= count, timeout=1.0)
-    ros.remove(sensor)
-    if not got:
+        ros.spin_until(
+            lambda: publisher.get_subscription_count() > 0 or bool(events),
+            sensor,
+            timeout=guard,
+        )
+        if events or publisher.get_subscription_count() == 0:
+            if asked.reliability == ReliabilityPolicy.RELIABLE:
+                raise CheckFailed(
+                    f"your subscription ({describe(asked)}) asks for RELIABLE delivery, which "
+                    f"a BEST_EFFORT sensor publisher ({describe(sensor_qos)}, that is "
+                    "qos_profile_sensor_data) does not offer: they never connect and the "
+                    "callback is never called. Subscribe with qos_profile_sensor_data."
+                )
+            raise CheckFailed(
+                f"your subscription ({describe(asked)}) does not connect to a publisher using "
+                f"qos_profile_sensor_data; incompatible policy: {', '.join(events) or 'none'}."
+            )
+        yield publisher
+    finally:
+        ros.remove(sensor)
+
+
+def scan_seen(msg: Any) -> tuple[str, list[float]]:
+    """What a check needs of a message the callback got: its type's name and its ranges."""
+    return type(msg).__name__, list(msg.ranges) if isinstance(msg, LaserScan) else []
+
+
+def assert_scans_received(
+    received: Sequence[tuple[str, list[float]]], count: int, base: float = 0.0
+) -> None:
+    """``received`` (``scan_seen`` of each message the callback got) are scans sent."""
+    if not received:
         raise CheckFailed(
             f"the subscription is connected but the callback received none of {count} "
             "scans: does make_scan_subscription pass `callback` to create_subscription?"
         )
-    if not all(isinstance(m, LaserScan) for m in got):
+    if any(kind != "LaserScan" for kind, _ in received):
         raise CheckFailed("the callback must receive the LaserScan messages themselves")
-    expected = [list(make_scan(i).ranges) for i in range(count)]
-    received = [list(m.ranges) for m in got]
-    if any(r not in expected for r in received):
+    expected = [list(make_scan(i, base).ranges) for i in range(count)]
+    if any(ranges not in expected for _, ranges in received):
         raise CheckFailed("the scans the callback received differ from those sent")
-    return got
 
 
 # -- slow_subscriber_model --------------------------------------------------------------
@@ -239,6 +288,8 @@ def assert_model_matches(
         call = f"predict_processed({hz!r}, {work!r}, {depth!r}, {duration!r})"
         try:
             got = predict(hz, work, depth, duration)
+        except CheckFailed:  # already says what happened (a judge's call into a kernel)
+            raise
         except Exception as exc:  # the student's function failed: say where
             raise CheckFailed(f"{call} raised {type(exc).__name__}: {exc}") from None
         if not isinstance(got, (list, tuple)):
@@ -312,6 +363,8 @@ def assert_incompatibilities_match(
         call = f"incompatible_policies(publisher: {describe(pub)}; subscription: {describe(sub)})"
         try:
             got = incompatible(pub, sub)
+        except CheckFailed:
+            raise
         except Exception as exc:  # the student's function failed: say how
             raise CheckFailed(f"{call} raised {type(exc).__name__}: {exc}") from None
         if not isinstance(got, (set, frozenset)) or not all(isinstance(p, str) for p in got):

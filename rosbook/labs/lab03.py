@@ -36,15 +36,21 @@ def _fq(node: Node) -> str:
 
 def assert_serves(node: Node, service: str, srv_type: type) -> None:
     """``node`` has a server of ``srv_type`` on ``service``."""
+    own = node.get_service_names_and_types_by_node(node.get_name(), node.get_namespace())
+    assert_service_in(node.get_name(), _fq(node), own, service, srv_type)
+
+
+def assert_service_in(name: str, fq_name: str, own: Any, service: str, srv_type: type) -> None:
+    """``own`` (node ``name``'s (service, types)) holds a server of ``srv_type`` on ``service``."""
     service = "/" + service.lstrip("/")
-    own = dict(node.get_service_names_and_types_by_node(node.get_name(), node.get_namespace()))
+    served = {s: list(types) for s, types in own}
     want = interface_name(srv_type)
-    if want in own.get(service, []):
+    if want in served.get(service, []):
         return
-    user = sorted(s for s in own if not s.startswith(_fq(node) + "/"))
-    seen = ", ".join(f"{s} ({', '.join(own[s])})" for s in user) or "none"
+    user = sorted(s for s in served if not s.startswith(fq_name + "/"))
+    seen = ", ".join(f"{s} ({', '.join(served[s])})" for s in user) or "none"
     raise CheckFailed(
-        f"node '{node.get_name()}' serves no {want} on {service}; its services: {seen}. "
+        f"node '{name}' serves no {want} on {service}; its services: {seen}. "
         f"Check the type and the name passed to create_service()."
     )
 
@@ -58,9 +64,14 @@ def assert_tells_time(server: Node, clock: SimClock, at: float) -> None:
     except ServiceCallError as exc:
         raise CheckFailed(f"calling what_time failed: {exc}") from None
     except TypeError as exc:  # rclpy refuses to send what the callback returned
-        raise CheckFailed(_bad_response(exc)) from None
+        raise CheckFailed(bad_response(exc)) from None
     finally:
         ros.remove(client)
+    assert_told_time(response, at)
+
+
+def assert_told_time(response: Trigger.Response, at: float) -> None:
+    """``response`` of what_time, asked when the node's ROS clock read ``at`` s."""
     assert response.success is True, (
         f"what_time answered success={response.success!r}: set response.success = True"
     )
@@ -102,31 +113,40 @@ def _trigger_call(
                 node.destroy_client(seen)
         outcome = run_with_deadline(lambda: call_trigger(node, service, timeout_s), deadline_s)
         where = f"call_trigger(node, {service!r}, {timeout_s})"
-        if not outcome.finished:
-            # Spinning the node ourselves delivers a response a blocked call() waits for.
-            unblocked = ros.spin_until(lambda: outcome.finished, node, timeout=1.0)
-            cause = (
-                "it returned only once the check spun the node: a synchronous "
-                "client.call() (or a wait on the future without spinning) blocks the one "
-                "thread that could spin the node and receive the response. This is the "
-                "deadlock of a synchronous call inside a callback on a single-threaded "
-                "executor. "
-                if unblocked
-                else "something in it waits without a bound (wait_for_service() with no "
-                "timeout_sec, or a synchronous client.call()): a deadlock. "
-            )
-            raise CheckFailed(
-                f"{where} did not return within {deadline_s:g} s; {cause}Send the request "
-                "with client.call_async(request) and wait with "
-                "rclpy.spin_until_future_complete(node, future, timeout_sec=timeout_s)."
-            )
-        if outcome.error is not None:
-            raise CheckFailed(
-                f"{where} raised {type(outcome.error).__name__}: {outcome.error}"
-            ) from None
+        finished = outcome.finished
+        # Spinning the node ourselves delivers a response a blocked call() waits for.
+        unblocked = not finished and ros.spin_until(lambda: outcome.finished, node, timeout=1.0)
+        error = outcome.error
+        raised = None if error is None else (type(error).__name__, str(error))
+        assert_trigger_returned(where, deadline_s, finished, unblocked, raised)
         return outcome.value, outcome.seconds
     finally:
         ros.remove(node)
+
+
+def assert_trigger_returned(
+    where: str, deadline_s: float, finished: bool, unblocked: bool, raised: tuple[str, str] | None
+) -> None:
+    """``where`` (a call of call_trigger) returned within ``deadline_s``, without raising;
+    ``unblocked``: it returned only once its node was spun by someone else."""
+    if not finished:
+        cause = (
+            "it returned only once the check spun the node: a synchronous "
+            "client.call() (or a wait on the future without spinning) blocks the one "
+            "thread that could spin the node and receive the response. This is the "
+            "deadlock of a synchronous call inside a callback on a single-threaded "
+            "executor. "
+            if unblocked
+            else "something in it waits without a bound (wait_for_service() with no "
+            "timeout_sec, or a synchronous client.call()): a deadlock. "
+        )
+        raise CheckFailed(
+            f"{where} did not return within {deadline_s:g} s; {cause}Send the request "
+            "with client.call_async(request) and wait with "
+            "rclpy.spin_until_future_complete(node, future, timeout_sec=timeout_s)."
+        )
+    if raised is not None:
+        raise CheckFailed(f"{where} raised {raised[0]}: {raised[1]}")
 
 
 def assert_call_trigger_answers(call_trigger: Callable[..., Any], service: str) -> None:
@@ -141,15 +161,21 @@ def assert_call_trigger_answers(call_trigger: Callable[..., Any], service: str) 
         value, _ = _trigger_call(
             call_trigger, service, timeout_s=2.0, deadline_s=4.0, server_up=True
         )
-        assert server.calls >= 1, (
-            f"call_trigger returned {value!r} without calling {service}: create a client "
-            "for the service_name argument and send a request"
-        )
+    assert_trigger_answered(value, server.calls, service, f"answered by the check on {service}")
+
+
+def assert_trigger_answered(value: Any, calls: int, service: str, message: str) -> None:
+    """call_trigger returned ``value`` after ``calls`` calls reached the server on
+    ``service``, which answered success=True and ``message``."""
+    assert calls >= 1, (
+        f"call_trigger returned {value!r} without calling {service}: create a client "
+        "for the service_name argument and send a request"
+    )
     assert isinstance(value, Trigger.Response), (
         f"call_trigger returned {value!r} ({type(value).__name__}); it must return the "
         "Trigger.Response (future.result()) when the server answers"
     )
-    assert value.message == f"answered by the check on {service}" and value.success, (
+    assert value.message == message and value.success, (
         f"call_trigger returned {value!r}, not the server's response"
     )
 
@@ -176,11 +202,18 @@ def assert_call_trigger_gives_up(
     finally:
         if server is not None:
             server.close()
+    assert_trigger_gave_up(value, seconds, service, timeout_s, what)
+
+
+def assert_trigger_gave_up(
+    value: Any, seconds: float, service: str, timeout_s: float, what: str, slack: float = 1.0
+) -> None:
+    """call_trigger, with ``what`` on ``service``, returned ``value`` after ``seconds``."""
     assert value is None, (
         f"call_trigger(node, {service!r}, {timeout_s}) with {what} returned {value!r}; "
         "it must return None when no response came within timeout_s"
     )
-    assert seconds < timeout_s + 1.0, (
+    assert seconds < timeout_s + slack, (
         f"call_trigger with {what} took {seconds:.1f} s for timeout_s={timeout_s}: bound "
         "the waits by timeout_s"
     )
@@ -206,7 +239,12 @@ def sim_spinner(
     return spin
 
 
-def countdown(clock: SimClock, order: int, cancel_after: int | None = None) -> GoalRun:
+def countdown(
+    clock: SimClock,
+    order: int,
+    cancel_after: int | None = None,
+    on_feedback: Callable[[Any], None] | None = None,
+) -> GoalRun:
     """Send a countdown goal to ``countdown`` from a client node of the check."""
     client = Node("countdown_check_client")
     try:
@@ -217,6 +255,7 @@ def countdown(clock: SimClock, order: int, cancel_after: int | None = None) -> G
             Fibonacci.Goal(order=order),
             timeout=GOAL_SIM_TIMEOUT_S,
             cancel_after=cancel_after,
+            on_feedback=on_feedback,
             spin=sim_spinner(clock),
         )
     except ServiceCallError as exc:
@@ -225,7 +264,7 @@ def countdown(clock: SimClock, order: int, cancel_after: int | None = None) -> G
         ros.remove(client)
 
 
-def _bad_response(exc: TypeError) -> str:
+def bad_response(exc: Exception) -> str:
     """The likely mistake behind rclpy's TypeError on sending a service response."""
     detail = f" ({type(exc).__name__}: {exc})" if str(exc) else ""
     return (
@@ -344,6 +383,16 @@ def set_from_outside(target: Node, name: str, value: Any, via: Node | None = Non
             ros.remove(setter)
 
 
+def divided_by_rate(bad: float) -> str:
+    """The likely mistake when setting rate_hz to ``bad`` raised ZeroDivisionError."""
+    return (
+        f"setting rate_hz to {bad} was accepted and the node then divided by it "
+        "(ZeroDivisionError): the on-set parameters callback must reject every "
+        "value <= 0, zero included, with SetParametersResult(successful=False, "
+        "reason=...) before the value is used"
+    )
+
+
 def tick_gaps(probe: Probe, clock: SimClock, seconds: float) -> list[float]:
     """Advance ``seconds`` and return the gaps between the messages that arrived."""
     start = len(probe.received.times)
@@ -383,12 +432,7 @@ def _assert_rate_follows(node: Node, clock: SimClock, probe: Probe, outsider: No
         try:
             result = set_from_outside(node, "rate_hz", bad, via=outsider)
         except ZeroDivisionError:
-            raise AssertionError(
-                f"setting rate_hz to {bad} was accepted and the node then divided by it "
-                "(ZeroDivisionError): the on-set parameters callback must reject every "
-                "value <= 0, zero included, with SetParametersResult(successful=False, "
-                "reason=...) before the value is used"
-            ) from None
+            raise AssertionError(divided_by_rate(bad)) from None
         assert not result.successful, (
             f"setting rate_hz to {bad} was accepted: an on-set parameters callback "
             "(add_on_set_parameters_callback) must return SetParametersResult("
