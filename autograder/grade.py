@@ -456,8 +456,7 @@ def grade_class(
             try:
                 # generating a lab takes seconds: only the labs with something to grade
                 assignments = {
-                    aid: prepare(aid, work, out)
-                    for aid in sorted({t.assignment_id for t in todo})
+                    aid: prepare(aid, work, out) for aid in sorted({t.assignment_id for t in todo})
                 }
             except BaseException:
                 for slot in slots:
