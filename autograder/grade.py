@@ -237,6 +237,14 @@ def grade_one(
     return finish(result["score"], result["status"], result["message"], [] if scored else None)
 
 
+def start_slots(workers: int) -> list[WorkerSlot]:
+    """``workers`` (at least one) worker processes, started: they import while we go on."""
+    slots = [WorkerSlot() for _ in range(max(1, workers))]
+    for slot in slots:
+        slot.start()
+    return slots
+
+
 class WorkerSlot:
     """One long-lived worker process; replaced when it has to be killed."""
 
@@ -244,7 +252,7 @@ class WorkerSlot:
         self.proc: subprocess.Popen[bytes] | None = None
         self.results: int | None = None
 
-    def _start(self) -> None:
+    def start(self) -> None:
         read_end, write_end = os.pipe()
         self.proc = subprocess.Popen(
             [sys.executable, "-m", "autograder.worker", str(write_end)],
@@ -263,7 +271,7 @@ class WorkerSlot:
         """The worker's result for ``job``, or None when it overran ``timeout``."""
         if self.proc is None or self.proc.poll() is not None:
             self.stop()
-            self._start()
+            self.start()
         assert self.proc is not None and self.proc.stdin is not None
         self.proc.stdin.write((json.dumps(asdict(job)) + "\n").encode())
         self.proc.stdin.flush()
@@ -442,10 +450,18 @@ def grade_class(
                 for t in tasks
                 if not (resume and journal.graded(t.student_id, t.assignment_id, t.digest))
             ]
-            # generating a lab takes seconds: only the labs with something to grade
-            assignments = {
-                aid: prepare(aid, work, out) for aid in sorted({t.assignment_id for t in todo})
-            }
+            # A worker takes seconds to import nbgrader: the local ones start now and
+            # import while the labs generate (on another core when there is one).
+            slots = [] if scheduler or not todo else start_slots(workers)
+            try:
+                # generating a lab takes seconds: only the labs with something to grade
+                assignments = {
+                    aid: prepare(aid, work, out) for aid in sorted({t.assignment_id for t in todo})
+                }
+            except BaseException:
+                for slot in slots:
+                    slot.stop()
+                raise
             shown = Progress(len(todo), len(tasks) - len(todo), progress)
 
             def saved(graded: Graded, task: Task) -> None:
@@ -472,7 +488,7 @@ def grade_class(
                         assignments,
                         submissions,
                         work,
-                        workers,
+                        slots,
                         cell_timeout,
                         submission_timeout,
                         saved,
@@ -490,18 +506,19 @@ def run_local(
     assignments: dict[str, Assignment],
     submissions: Path,
     work: Path,
-    workers: int,
+    every_slot: list[WorkerSlot],
     cell_timeout: int,
     submission_timeout: float,
     saved: Callable[[Graded, Task], None],
 ) -> None:
-    """Grade ``tasks`` with ``workers`` local worker processes; ``saved`` each as it ends.
+    """Grade ``tasks`` with the local workers of ``every_slot``; ``saved`` each as it ends.
+
+    The slots are stopped at the end.
 
     On Ctrl-C the workers are killed with what they started, the submissions being
     graded are dropped (they get no row), and ``Interrupted`` is raised.
     """
     slots: queue.Queue[WorkerSlot] = queue.Queue()
-    every_slot = [WorkerSlot() for _ in range(max(1, workers))]
     for slot in every_slot:
         slots.put(slot)
     stopping = threading.Event()
