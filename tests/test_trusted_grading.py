@@ -433,6 +433,11 @@ LAB5_ATTACKS = {
     ),
     "lab5_checks_patched": "import rosbook.labs.lab05 as _m" + NEUTER,
 }
+#: Only the test cells (all call ``checks.``) turned into `pass`: the student's cells run.
+LAB5_TEST_CELLS_PASS = (
+    "get_ipython().input_transformers_post.append(\n"
+    "    lambda lines: ['pass\\n'] if 'checks.' in ''.join(lines) else lines)"
+)
 
 
 def test_lab5_drives_are_judged_by_the_judges_own_simulator(tmp_path: Path) -> None:
@@ -446,9 +451,7 @@ def test_lab5_drives_are_judged_by_the_judges_own_simulator(tmp_path: Path) -> N
     for name, source in LAB5_ATTACKS.items():
         submit(root, name, LAB5, extra_cell(nbformat.read(notebook_path(LAB5), 4), source))
     swapped = fixtures()["swapped"]
-    submit(
-        root, "lab5_swapped_transformed", LAB5, extra_cell(swapped, ATTACKS["input_transformer"])
-    )  # type: ignore[arg-type]
+    submit(root, "lab5_swapped_transformed", LAB5, extra_cell(swapped, LAB5_TEST_CELLS_PASS))  # type: ignore[arg-type]
     out = tmp_path / "out"
     rows = grade(root, out, assignment_id=LAB5, workers=2, cell_timeout=120)
     for name in LAB5_ATTACKS:
@@ -460,4 +463,5 @@ def test_lab5_drives_are_judged_by_the_judges_own_simulator(tmp_path: Path) -> N
     r = rows[("lab5_swapped_transformed", LAB5)]
     assert (r["score"], r["status"]) == ("8", "tampered"), r
     page = feedback(out, "lab5_swapped_transformed", LAB5)
-    assert "left and right are swapped" in page  # the judge's finding, in the lab's words
+    # the cell that claimed a pass, and the judge's finding in the lab's words
+    assert "test_wheel_speeds" in page and "left and right are swapped" in page
