@@ -54,6 +54,7 @@ JUDGED_LABS = {
     "lab02_qos": "autograder.judge_lab02",
     "lab03_services_actions": "autograder.judge_lab03",
     "lab04_urdf": "autograder.judge_lab04",
+    "lab05_diff_drive": "autograder.judge_lab05",
     "lab06_launch_system": "autograder.judge_lab06",
 }
 
@@ -103,12 +104,16 @@ class _RosbookJudgeAgent:
         import json
         self.reply = json.dumps(value)
 
-    def start(self, factory, kwargs, sim_time):
+    def start(self, factory, kwargs, sim_time, parameters=None):
         from rclpy.executors import SingleThreadedExecutor
+        from rclpy.parameter import Parameter
         from rosbook import ros
         self.stop()
         ros.init(sim_time=sim_time)
         ros.reset()
+        if parameters:
+            kwargs = dict(kwargs, parameter_overrides=[
+                Parameter(name, value=value) for name, value in parameters.items()])
         self.node = get_ipython().user_ns[factory](**kwargs)
         self.executor = SingleThreadedExecutor()
         self.executor.add_node(self.node)
@@ -125,7 +130,10 @@ class _RosbookJudgeAgent:
         messages it has published on each topic, and action feedback messages under
         "feedback" (the judge waits for them to arrive, then publishes the next time);
         "feedback_at" lists the node's clock (ns) at each feedback, for the pacing of an
-        action, whose feedback can be sent while the judge holds a time."""
+        action, whose feedback can be sent while the judge holds a time; "taken" counts
+        the messages its subscriptions' callbacks took, by topic (said again at once when
+        it grows: the judge sends a sensor reading and waits for it to be taken before it
+        moves time on)."""
         import json
         import time
         import rclpy
@@ -147,6 +155,19 @@ class _RosbookJudgeAgent:
             feedback_at.append(self.node.get_clock().now().nanoseconds)
             return original_feedback(handle, feedback)
 
+        taken = {}
+        callbacks = []
+        for sub in self.node.subscriptions:
+            if sub.topic_name != "/clock":
+                callbacks.append((sub, sub.callback))
+
+                def taking(*args, _sub=sub, _callback=sub.callback):
+                    result = _callback(*args)
+                    taken[_sub.topic_name] = taken.get(_sub.topic_name, 0) + 1
+                    return result
+
+                sub.callback = taking
+        said = -1
         Publisher.publish = counted
         original_feedback = ServerGoalHandle.publish_feedback
         ServerGoalHandle.publish_feedback = counted_feedback
@@ -165,10 +186,13 @@ class _RosbookJudgeAgent:
                         self.executor.spin_once(timeout_sec=0.0)
                     last, sent = now, 0.0
                     deadline = time.monotonic() + guard
+                if sum(taken.values()) != said:
+                    said, sent = sum(taken.values()), 0.0
                 if time.monotonic() - sent > 0.1:  # again, while the judge waits for it
-                    msg.data = json.dumps(
-                        {"now": last, "published": counts, "feedback_at": feedback_at}
-                    )
+                    msg.data = json.dumps({
+                        "now": last, "published": counts, "feedback_at": feedback_at,
+                        "taken": taken,
+                    })
                     ack.publish(msg)
                     sent = time.monotonic()
                     if last >= target:
@@ -181,6 +205,8 @@ class _RosbookJudgeAgent:
         finally:
             Publisher.publish = original
             ServerGoalHandle.publish_feedback = original_feedback
+            for sub, callback in callbacks:
+                sub.callback = callback
             self.ackers.append(acker)  # destroyed by stop(): the last ack must get out
 
     def spin(self, seconds):
@@ -338,11 +364,21 @@ class Judgement:
     #: The kernel's sandbox (its first process), whose folder ``folder`` is seen through.
     sandbox_pid: int | None = None
 
-    def start_node(self, factory: str, *, sim_time: bool = False, **kwargs: Any) -> dict[str, Any]:
-        """Build ``factory(**kwargs)`` in the kernel; what it says it is (name, endpoints)."""
-        call = f"{factory}({', '.join(f'{k}={v!r}' for k, v in kwargs.items())})"
+    def start_node(
+        self,
+        factory: str,
+        *,
+        sim_time: bool = False,
+        parameters: dict[str, Any] | None = None,
+        **kwargs: Any,
+    ) -> dict[str, Any]:
+        """Build ``factory(**kwargs)`` in the kernel (``parameters``: its overrides); what
+        it says it is (name, endpoints)."""
+        shown = [f"{k}={v!r}" for k, v in kwargs.items()]
+        shown += [f"Parameter({k!r}, value={v!r})" for k, v in (parameters or {}).items()]
+        call = f"{factory}({', '.join(shown)})"
         try:
-            return self.kernel.call("start", factory, kwargs, sim_time)  # type: ignore[no-any-return]
+            return self.kernel.call("start", factory, kwargs, sim_time, parameters)  # type: ignore[no-any-return]
         except KernelError as exc:
             if "NotImplementedError" in str(exc):
                 raise CheckFailed(

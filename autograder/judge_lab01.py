@@ -136,9 +136,10 @@ def _ack(text: str) -> dict[str, Any]:
             "now": int(ack["now"]),
             "published": dict(ack["published"]),
             "feedback_at": [int(t) for t in ack.get("feedback_at", [])],
+            "taken": dict(ack.get("taken", {})),
         }
     except (ValueError, KeyError, TypeError):
-        return {"now": -1, "published": {}, "feedback_at": []}
+        return {"now": -1, "published": {}, "feedback_at": [], "taken": {}}
 
 
 def check_counter_publisher(j: Judgement) -> None:

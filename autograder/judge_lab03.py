@@ -113,7 +113,9 @@ class RemoteClock:
         self.kernel, self.name = j.kernel, name
         self.node = ros_node("judge_clock")
         self.clock = clock_publisher(self.node)
-        self.acked: list[dict[str, Any]] = [{"now": -1, "published": {}, "feedback_at": []}]
+        self.acked: list[dict[str, Any]] = [
+            {"now": -1, "published": {}, "feedback_at": [], "taken": {}}
+        ]
         self.acks = self.node.create_subscription(
             String, "/rosbook_judge/clock_ack", lambda m: self.acked.append(_ack(m.data)), 10
         )

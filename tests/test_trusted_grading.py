@@ -419,3 +419,49 @@ def test_an_attack_on_labs_2_and_3_earns_no_point_and_is_told_the_judges_finding
     assert "Checks that passed only inside your notebook" in page
     cell, told = TOLD[lab]
     assert cell in page and told in page, page[-3000:]
+
+
+# -- lab 5: the simulator runs in the judge ---------------------------------------------
+
+LAB5 = "lab05_diff_drive"
+
+#: Lab 5's attacks, each a cell added to the untouched release (its code earns 0).
+LAB5_ATTACKS = {
+    "lab5_input_transformer": ATTACKS["input_transformer"],
+    "lab5_pre_run_cell_hook": ATTACKS["pre_run_cell_hook"].replace(
+        "rosbook.labs.lab01", "rosbook.labs.lab05"
+    ),
+    "lab5_checks_patched": "import rosbook.labs.lab05 as _m" + NEUTER,
+}
+#: Only the test cells (all call ``checks.``) turned into `pass`: the student's cells run.
+LAB5_TEST_CELLS_PASS = (
+    "get_ipython().input_transformers_post.append(\n"
+    "    lambda lines: ['pass\\n'] if 'checks.' in ''.join(lines) else lines)"
+)
+
+
+def test_lab5_drives_are_judged_by_the_judges_own_simulator(tmp_path: Path) -> None:
+    """Lab 5's test cells skipped or its checks replaced in the kernel earn nothing; a
+    submission whose driving works but whose kinematics are wrong keeps exactly the
+    driving points under the same attack (the judge ran its simulator against the node)."""
+    from tests.labtools import notebook_path
+    from tests.test_lab05 import fixtures
+
+    root = tmp_path / "submissions"
+    for name, source in LAB5_ATTACKS.items():
+        submit(root, name, LAB5, extra_cell(nbformat.read(notebook_path(LAB5), 4), source))
+    swapped = fixtures()["swapped"]
+    submit(root, "lab5_swapped_transformed", LAB5, extra_cell(swapped, LAB5_TEST_CELLS_PASS))  # type: ignore[arg-type]
+    out = tmp_path / "out"
+    rows = grade(root, out, assignment_id=LAB5, workers=2, cell_timeout=120)
+    for name in LAB5_ATTACKS:
+        r = rows[(name, LAB5)]
+        assert (r["score"], r["status"]) == ("0", "tampered"), r
+        page = feedback(out, name, LAB5)
+        assert "Checks that passed only inside your notebook" in page, page[:2000]
+        assert "test_go_to_pose" in page  # its cell only calls checks: replaced
+    r = rows[("lab5_swapped_transformed", LAB5)]
+    assert (r["score"], r["status"]) == ("8", "tampered"), r
+    page = feedback(out, "lab5_swapped_transformed", LAB5)
+    # the cell that claimed a pass, and the judge's finding in the lab's words
+    assert "test_wheel_speeds" in page and "left and right are swapped" in page

@@ -118,20 +118,36 @@ def drive(
     try:
         sim.run(seconds, until=until, wall_timeout=RUN_HANG_GUARD_S)
     except TimeoutError as exc:
-        raise TimeoutError(
-            f"{exc} Does a callback of your node block (a loop waiting for odom, "
-            "time.sleep)? Let the timer and subscription callbacks return quickly."
-        ) from None
+        raise TimeoutError(blocked(str(exc))) from None
     except Exception as exc:  # a callback of the student's node raised
         raise AssertionError(
-            f"a callback of your node raised {type(exc).__name__}: {exc} ({checks._where(exc)})"
+            callback_raised(f"{type(exc).__name__}: {exc} ({checks._where(exc)})")
         ) from None
-    if sim.node.commands == 0:
+    assert_commanded(sim.node.commands, seconds)
+    return DriveRun(sim, node, world, sim.now)
+
+
+def blocked(reason: str) -> str:
+    """The message for a run stopped by its hang guard (``reason``: which, and when)."""
+    return (
+        f"{reason} Does a callback of your node block (a loop waiting for odom, "
+        "time.sleep)? Let the timer and subscription callbacks return quickly."
+    )
+
+
+def assert_commanded(commands: int, seconds: float) -> None:
+    """Some ``cmd_vel`` arrived at the simulator in the run of ``seconds``."""
+    if commands == 0:
         raise AssertionError(
             f"no Twist arrived on 'cmd_vel' in {seconds:g} s of simulated time: does a "
             "timer of your node publish geometry_msgs/msg/Twist on 'cmd_vel'?"
         )
-    return DriveRun(sim, node, world, sim.now)
+
+
+def callback_raised(what: str) -> str:
+    """The message for a callback of the student's node that raised (``what``: the
+    exception's type and message, and where)."""
+    return f"a callback of your node raised {what}"
 
 
 def show_path(
