@@ -96,6 +96,7 @@ STUDENT_OFF = (
     "jupyter_lsp",
     "jupyterlab_jupytext",
     "notebook_shim",
+    "notebook",
 )
 #: A hang guard for a relay or a server to come up (a loaded machine is slow).
 START_TIMEOUT = 120.0
@@ -148,7 +149,10 @@ class SandboxSpawner(SimpleLocalProcessSpawner):  # type: ignore[misc]
 
     async def _join_relay(self, listen: str, connect: str) -> subprocess.Popen[bytes]:
         assert self._network is not None
-        argv = self._network.join_argv([sys.executable, "-m", "autograder.relay", listen, connect])
+        # The relay needs only the standard library: -I -S skip site-packages' start-up
+        # hooks (the ROS wheels' bootstrap among them), about 1 MB per student.
+        relay_argv = [sys.executable, "-I", "-S", relay.__file__, listen, connect]
+        argv = self._network.join_argv(relay_argv)
         proc = subprocess.Popen(argv, stdin=subprocess.PIPE, stdout=subprocess.PIPE, cwd=ROOT)
         assert proc.stdout is not None
         try:
@@ -191,8 +195,12 @@ class SandboxSpawner(SimpleLocalProcessSpawner):  # type: ignore[misc]
             labconfig.mkdir(exist_ok=True)
             disabled = {f"@jupyter/nbgrader:{name}": True for name in INSTRUCTOR_TOOLS}
             disabled["jupyterlab-jupytext"] = True
+            # No build check: JupyterLab would start node (``yarn config``, ~50 MB) at
+            # each login to offer a build nobody can run (the venv is read-only here).
             (labconfig / "page_config.json").write_text(
-                json.dumps({"disabledExtensions": disabled})
+                json.dumps(
+                    {"disabledExtensions": disabled, "buildCheck": False, "buildAvailable": False}
+                )
             )
         for tree in (home / ".jupyter", exchange):
             _owned(tree)
