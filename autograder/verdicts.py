@@ -42,20 +42,28 @@ class Judging:
     verdicts: dict[str, Verdict] = field(default_factory=dict)
     process: subprocess.Popen[str] | None = None
 
+    def start(self) -> None:
+        """Start this submission's judge unless it runs: its interpreter, rclpy and ROS
+        start while the kernel starts and the student's cells run, not at the first
+        judged cell. It is this submission's own and ends with it."""
+        if self.process is not None and self.process.poll() is None:
+            return
+        argv = [sys.executable, "-I", "-m", "autograder.judge"]
+        network = sandbox.current_network()  # the kernel's: the judge joins it
+        self.process = subprocess.Popen(
+            network.join_argv(argv) if network is not None else argv,
+            stdin=subprocess.PIPE,
+            stdout=subprocess.PIPE,
+            text=True,
+            cwd=Path(__file__).resolve().parent.parent,
+            start_new_session=True,
+        )
+
     def verdict(
         self, grade_id: str, connection_file: str, folder: str, sandbox_pid: int | None = None
     ) -> Verdict:
-        if self.process is None or self.process.poll() is not None:
-            argv = [sys.executable, "-I", "-m", "autograder.judge"]
-            network = sandbox.current_network()  # the kernel's: the judge joins it
-            self.process = subprocess.Popen(
-                network.join_argv(argv) if network is not None else argv,
-                stdin=subprocess.PIPE,
-                stdout=subprocess.PIPE,
-                text=True,
-                cwd=Path(__file__).resolve().parent.parent,
-                start_new_session=True,
-            )
+        self.start()  # again if it died on an earlier check
+        assert self.process is not None
         assert self.process.stdin is not None and self.process.stdout is not None
         request = {
             "assignment": self.assignment_id,
@@ -108,6 +116,8 @@ def judging(assignment_id: str) -> Iterator[Judging]:
     global _current
     _current = Judging(assignment_id, set(judged_checks(assignment_id)))
     try:
+        if _current.checks:
+            _current.start()
         yield _current
     finally:
         _current.stop()
