@@ -23,8 +23,11 @@ def test_the_judge_starts_with_the_submission_before_any_cell() -> None:
         assert run.process is None and process.poll() is not None  # ended with the block
 
 
-def test_a_lab_judged_in_the_kernel_starts_no_judge() -> None:
-    with judging("lab05_diff_drive") as run:
+def test_an_assignment_without_judged_checks_starts_no_judge() -> None:
+    """Every lab of the course is judged; an assignment an instructor adds without a
+    judge module (its test cells score in the kernel, as nbgrader's do) costs none."""
+    assert judge.judged_checks("lab99_new") == {}
+    with judging("lab99_new") as run:
         assert run.process is None
 
 
