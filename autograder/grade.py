@@ -518,6 +518,8 @@ def run_local(
     On Ctrl-C the workers are killed with what they started, the submissions being
     graded are dropped (they get no row), and ``Interrupted`` is raised.
     """
+    if not tasks:  # a resumed class with nothing left to grade: no worker was started
+        return
     slots: queue.Queue[WorkerSlot] = queue.Queue()
     for slot in every_slot:
         slots.put(slot)
