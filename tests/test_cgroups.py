@@ -7,6 +7,7 @@ import os
 import subprocess
 import sys
 import time
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import pytest
@@ -238,5 +239,7 @@ def test_a_grading_kernel_runs_in_a_cgroup_of_the_configured_size(writable) -> N
             await manager.shutdown_kernel(now=True)
         return group
 
-    group = asyncio.run(run())
+    # in a thread of its own: an earlier test's Playwright may hold this thread's loop
+    with ThreadPoolExecutor(1) as pool:
+        group = pool.submit(asyncio.run, run()).result()
     assert group.gone.is_set() and not any(f.exists() for f in group.directories())
