@@ -254,24 +254,42 @@ LAB6_ATTACKS = {
 }
 
 
+def attacked_release(
+    tmp_path: Path,
+    lab: str,
+    attacks: dict[str, str],
+    cell: str,
+    others: dict[str, nbformat.NotebookNode] | None = None,
+) -> tuple[dict[tuple[str, str], dict[str, str]], Path]:
+    """``lab``'s release with each attack added, graded (with ``others``) by the
+    documented command: every attack scores 0, is ``tampered``, and its feedback names
+    ``cell`` as a check that passed only inside the notebook. The rows and OUT."""
+    from tests.labtools import notebook_path
+
+    root = tmp_path / "submissions"
+    for name, source in attacks.items():
+        submit(root, name, lab, extra_cell(nbformat.read(notebook_path(lab), 4), source))
+    for name, notebook in (others or {}).items():
+        submit(root, name, lab, notebook)
+    out = tmp_path / "out"
+    rows = grade(root, out, assignment_id=lab, workers=2, cell_timeout=120)
+    for name in attacks:
+        r = rows[(name, lab)]
+        assert (r["score"], r["status"]) == ("0", "tampered"), r
+        page = feedback(out, name, lab)
+        assert "Checks that passed only inside your notebook" in page, page[:2000]
+        assert cell in page
+    return rows, out
+
+
 def test_lab6_builds_and_launches_are_judged_outside_the_kernel(tmp_path: Path) -> None:
     """Lab 6's checks skipped or replaced in the kernel earn nothing: the judge builds,
     runs and launches the student's work itself; and no process is left behind."""
-    from tests.labtools import notebook_path
     from tests.test_lab01 import live_marked_processes
 
     lab6 = "lab06_launch_system"
-    root = tmp_path / "submissions"
-    for name, source in LAB6_ATTACKS.items():
-        submit(root, name, lab6, extra_cell(nbformat.read(notebook_path(lab6), 4), source))
-    out = tmp_path / "out"
-    rows = grade(root, out, assignment_id=lab6, workers=2, cell_timeout=120)
-    for name in LAB6_ATTACKS:
-        r = rows[(name, lab6)]
-        assert (r["score"], r["status"]) == ("0", "tampered"), r
-        page = feedback(out, name, lab6)
-        assert "Checks that passed only inside your notebook" in page, page[:2000]
-        assert "test_two_robots" in page  # its check is a module function: replaced
+    # test_two_robots: its check is a module function, replaced
+    rows, out = attacked_release(tmp_path, lab6, LAB6_ATTACKS, "test_two_robots")
     # the transformer also turned the manifest's check (a plain assert first) into `pass`
     assert "test_package_manifest" in feedback(out, "lab6_input_transformer", lab6)
     assert live_marked_processes() == []
@@ -444,22 +462,13 @@ def test_lab5_drives_are_judged_by_the_judges_own_simulator(tmp_path: Path) -> N
     """Lab 5's test cells skipped or its checks replaced in the kernel earn nothing; a
     submission whose driving works but whose kinematics are wrong keeps exactly the
     driving points under the same attack (the judge ran its simulator against the node)."""
-    from tests.labtools import notebook_path
     from tests.test_lab05 import fixtures
 
-    root = tmp_path / "submissions"
-    for name, source in LAB5_ATTACKS.items():
-        submit(root, name, LAB5, extra_cell(nbformat.read(notebook_path(LAB5), 4), source))
-    swapped = fixtures()["swapped"]
-    submit(root, "lab5_swapped_transformed", LAB5, extra_cell(swapped, LAB5_TEST_CELLS_PASS))  # type: ignore[arg-type]
-    out = tmp_path / "out"
-    rows = grade(root, out, assignment_id=LAB5, workers=2, cell_timeout=120)
-    for name in LAB5_ATTACKS:
-        r = rows[(name, LAB5)]
-        assert (r["score"], r["status"]) == ("0", "tampered"), r
-        page = feedback(out, name, LAB5)
-        assert "Checks that passed only inside your notebook" in page, page[:2000]
-        assert "test_go_to_pose" in page  # its cell only calls checks: replaced
+    swapped = extra_cell(fixtures()["swapped"], LAB5_TEST_CELLS_PASS)  # type: ignore[arg-type]
+    # test_go_to_pose: its cell only calls checks, replaced
+    rows, out = attacked_release(
+        tmp_path, LAB5, LAB5_ATTACKS, "test_go_to_pose", {"lab5_swapped_transformed": swapped}
+    )
     r = rows[("lab5_swapped_transformed", LAB5)]
     assert (r["score"], r["status"]) == ("8", "tampered"), r
     page = feedback(out, "lab5_swapped_transformed", LAB5)
