@@ -28,7 +28,7 @@ from rosbook.launch.launcher import (
     load_launch_file,
     yaml_value,
 )
-from rosbook.launch.substitutions import LaunchContext
+from rosbook.launch.substitutions import LaunchConfiguration, LaunchContext
 from rosbook.launch.workspace import Workspace, create_package
 from rosbook.runtime.session import Session
 
@@ -235,6 +235,24 @@ def test_a_node_ignoring_ctrl_c_is_escalated_to_sigterm(
     codes = system.shutdown()
     assert codes == {"stubborn-1": -signal.SIGTERM}
     assert "[WARNING] [stubborn-1]: still running: sending SIGTERM" in system.output
+
+
+def test_escalation_waits_come_from_the_launch_configurations_as_upstream() -> None:
+    """``ros2 launch FILE sigterm_timeout:=30``: a process without timeouts of its own
+    waits that long after Ctrl-C before SIGTERM (upstream's ``LaunchConfiguration(
+    'sigterm_timeout', default=5)``); its own value, a substitution too, wins."""
+    context = LaunchContext({})
+    plain = Node(package="robot_talk", executable="talker")
+    assert plain.escalation_timeout("sigterm_timeout", context) == 5.0
+    context.launch_configurations.update(sigterm_timeout="30", sigkill_timeout="7.5")
+    assert plain.escalation_timeout("sigterm_timeout", context) == 30.0
+    assert plain.escalation_timeout("sigkill_timeout", context) == 7.5
+    own = Node(package="robot_talk", executable="talker", sigterm_timeout=LaunchConfiguration("t"))
+    context.launch_configurations["t"] = "2"
+    assert own.escalation_timeout("sigterm_timeout", context) == 2.0
+    context.launch_configurations["sigterm_timeout"] = "soon"
+    with pytest.raises(LaunchError, match="sigterm_timeout must be a number of seconds"):
+        plain.escalation_timeout("sigterm_timeout", context)
 
 
 def test_unknown_package_or_executable_is_named_before_anything_starts(

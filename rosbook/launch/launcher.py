@@ -31,6 +31,8 @@ Substitutions and conditions are in ``rosbook.launch.substitutions``.
 process name (``[talker-1] ...``), and stops them all with one Ctrl-C: SIGINT to each,
 then SIGTERM, then SIGKILL after ``sigterm_timeout`` / ``sigkill_timeout`` seconds
 (a second Ctrl-C meanwhile is ignored, as in launch; ``timeout -s INT`` sends two at once).
+As in launch, a process without its own timeouts takes the launch configurations of
+those names (``ros2 launch FILE sigterm_timeout:=30``), else 5 s each.
 
 Not provided: XML/YAML launch files, composable nodes, lifecycle nodes, respawn, event
 handlers other than process start and exit, and log files under ``~/.ros/log``.
@@ -450,8 +452,8 @@ class ExecuteProcess(Action):
         env: Mapping[str, str] | None = None,
         additional_env: Mapping[str, SomeSubstitutionsType] | None = None,
         shell: bool = False,
-        sigterm_timeout: float = 5.0,
-        sigkill_timeout: float = 5.0,
+        sigterm_timeout: float | SomeSubstitutionsType | None = None,
+        sigkill_timeout: float | SomeSubstitutionsType | None = None,
         emulate_tty: bool = False,
         output: str = "log",
         on_exit: Any = None,
@@ -464,11 +466,24 @@ class ExecuteProcess(Action):
         self.env = env
         self.additional_env = dict(additional_env or {})
         self.shell = shell
-        self.sigterm_timeout = float(sigterm_timeout)
-        self.sigkill_timeout = float(sigkill_timeout)
+        self.sigterm_timeout = sigterm_timeout
+        self.sigkill_timeout = sigkill_timeout
         self.emulate_tty = emulate_tty  # output is line-buffered here anyway
         self.output = output
         self.on_exit = on_exit
+
+    def escalation_timeout(self, name: str, context: LaunchContext) -> float:
+        """Seconds before ``sigterm_timeout`` / ``sigkill_timeout`` escalates: this
+        action's own, else the launch configuration of that name, else 5."""
+        value = getattr(self, name)
+        if value is None:
+            value = context.launch_configurations.get(name, "5")
+        if not isinstance(value, (int, float)):
+            value = perform_substitutions(context, value)
+        try:
+            return float(value)
+        except ValueError:
+            raise LaunchError(f"{name} must be a number of seconds, not {value!r}") from None
 
     def describe_conditional_sub_entities(self) -> list[tuple[str, list[Entity]]]:
         exits = [] if self.on_exit is None or callable(self.on_exit) else _entities(self.on_exit)
@@ -964,7 +979,8 @@ class Launch:
             (signal.SIGKILL, "sigkill_timeout", sigkill_timeout),
         ):
             waits = [
-                override if override is not None else getattr(p.node, attr) for p in self.processes
+                override if override is not None else p.node.escalation_timeout(attr, p.context)
+                for p in self.processes
             ]
             deadline = time.monotonic() + max(waits, default=0.0)
             while self.running() and time.monotonic() < deadline:
