@@ -139,6 +139,11 @@ class Cgroup:
         """Forks and clones refused at ``pids.max``."""
         return _keyed(self._file("pids", "pids.events")).get("max", 0)
 
+    def full(self, room: int = 16) -> bool:
+        """Its tasks (processes and threads) are within ``room`` of ``pids.max``."""
+        current = int(self._file("pids", "pids.current").read_text())
+        return current + room >= int(self._file("pids", "pids.max").read_text())
+
     def pids(self) -> set[int]:
         found: set[int] = set()
         for folder in self.directories():

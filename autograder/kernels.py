@@ -12,6 +12,12 @@ nothing the kernel can write lives on the host's disk. A folder of the grader's 
 the sockets. Interrupts are sent as messages: a signal would reach ``bwrap``, not the
 kernel.
 
+A cell that leaves its sandbox at its process limit (``Limits.processes``), say by
+starting hundreds of programs and keeping them, leaves the kernel no room for a thread:
+every later cell and check would hang until the submission's time runs out. Before each
+cell, such a sandbox's other processes are ended (the kernel kept; it reaps them) and
+``REAPED`` says how many, for the feedback.
+
 ``CappedExecute`` is nbgrader's ``Execute`` keeping at most ``Limits.output`` bytes of
 output per cell, so a cell that prints 200 MB neither fills the grader's memory nor
 the feedback page.
@@ -20,9 +26,11 @@ the feedback page.
 from __future__ import annotations
 
 import asyncio
+import contextlib
 import json
 import os
 import shutil
+import signal
 import subprocess
 import sys
 import tempfile
@@ -32,7 +40,7 @@ from typing import Any
 
 from jupyter_client import AsyncKernelManager
 from nbformat import NotebookNode
-from nbformat.v4 import new_output
+from nbformat.v4 import new_code_cell, new_output
 from nbgrader.preprocessors import Execute
 from traitlets import Bool, Float, Integer, default
 
@@ -40,6 +48,8 @@ from autograder import cgroups, sandbox
 
 #: Inside the sandbox: where the kernel's sockets and connection file are.
 KERNEL_DIR = "/run/kernel"
+#: Processes ended that way in this process's sandboxes (the worker reads it per job).
+REAPED: list[int] = []
 #: Bytes of the kernel's own stdout/stderr (not a cell's output) kept in the log.
 KERNEL_LOG_MAX = 64 << 10
 
@@ -74,9 +84,15 @@ class IpcKernelManager(AsyncKernelManager):
         help="Memory of each kernel's sandbox (bytes; OOM past it).",
     )
 
+    processes = Integer(
+        sandbox.Limits.processes,
+        config=True,
+        help="Processes and threads of each kernel's sandbox (its cgroup's pids.max).",
+    )
+
     @property
     def limits(self) -> sandbox.Limits:
-        return sandbox.Limits(cpus=self.cpus, ram=self.ram)
+        return sandbox.Limits(cpus=self.cpus, ram=self.ram, processes=self.processes)
 
     @default("transport")
     def _transport_default(self) -> str:
@@ -169,6 +185,58 @@ class IpcKernelManager(AsyncKernelManager):
     cleanup_resources = _async_cleanup_resources  # type: ignore[assignment]
 
 
+def end_strays(first: int) -> list[int]:
+    """End every process below the sandbox's first one (bwrap's PID 1) but the oldest,
+    the kernel; their PIDs inside the sandbox (the kernel must reap its children)."""
+    children = _children(first)
+    if not children:
+        return []
+    kernel = min(children, key=_started_at)
+    ended = []
+    for pid in _below(first) - {kernel}:
+        try:
+            status = Path(f"/proc/{pid}/status").read_text()
+            os.kill(pid, signal.SIGKILL)
+        except (ProcessLookupError, FileNotFoundError):
+            continue
+        inner = [line.split()[-1] for line in status.splitlines() if line.startswith("NSpid:")]
+        ended += [int(inner[0])] if inner else []
+    return ended
+
+
+#: Run in the kernel: reap the ended children whose PIDs (inside) it is given.
+REAP = (
+    "import os as _os\nfor _pid in {pids!r}:\n    try:\n        _os.waitpid(_pid, 0)\n"
+    "    except ChildProcessError:\n        pass\ndel _os, _pid\n"
+)
+
+
+def _children(pid: int) -> set[int]:
+    found: set[int] = set()
+    for task in Path(f"/proc/{pid}/task").glob("*"):
+        with contextlib.suppress(OSError):
+            found |= {int(c) for c in (task / "children").read_text().split()}
+    return found
+
+
+def _below(pid: int) -> set[int]:
+    """Every descendant of ``pid``."""
+    found, todo = set(), [pid]
+    while todo:
+        for child in _children(todo.pop()) - found:
+            found.add(child)
+            todo.append(child)
+    return found
+
+
+def _started_at(pid: int) -> int:
+    try:
+        stat = Path(f"/proc/{pid}/stat").read_text()
+    except OSError:
+        return 1 << 62
+    return int(stat.rsplit(")", 1)[1].split()[19])  # field 22: start time in ticks
+
+
 class CappedExecute(Execute):  # type: ignore[misc]
     """nbgrader's ``Execute`` keeping at most ``max_output_bytes`` of output per cell."""
 
@@ -177,6 +245,27 @@ class CappedExecute(Execute):  # type: ignore[misc]
     # reply; the cut output is dropped and the notebook goes on (nbgrader would abandon
     # the whole notebook: 0 points earned elsewhere).
     raise_on_iopub_timeout = Bool(False).tag(config=True)
+
+    def preprocess_cell(
+        self, cell: NotebookNode, resources: dict[str, Any], index: int
+    ) -> tuple[NotebookNode, dict[str, Any]]:
+        self.make_room(resources, index)
+        return super().preprocess_cell(cell, resources, index)  # type: ignore[no-any-return]
+
+    def make_room(self, resources: dict[str, Any], index: int) -> None:
+        """A sandbox left at its process limit by the cells so far: end its other
+        processes and have the kernel reap them (a cell of its own, not kept)."""
+        group, first = getattr(self.km, "cgroup", None), getattr(self.km, "sandbox_pid", None)
+        try:
+            if group is None or first is None or not group.full():
+                return
+        except (FileNotFoundError, ValueError):
+            return
+        ended = end_strays(first)
+        if ended:
+            REAPED.append(len(ended))
+            reap = new_code_cell(REAP.format(pids=ended))
+            super().preprocess_cell(reap, resources, index)
 
     def output(
         self, outs: list[NotebookNode], msg: dict[str, Any], display_id: str | None, cell_index: int

@@ -133,6 +133,7 @@ class JudgedExecute(CappedExecute):  # type: ignore[misc]
     ) -> tuple[NotebookNode, dict[str, Any]]:
         grade_id = cell.get("metadata", {}).get("nbgrader", {}).get("grade_id")
         if _current is not None and is_test_cell(cell) and grade_id in _current.checks:
+            self.make_room(resources, index)  # the judge runs programs in the sandbox
             # A sandbox's folder is seen through /proc/<pid>/root: never resolved (that
             # link would lead to the host's own root).
             folder = getattr(self.km, "sandbox_folder", None) or str(

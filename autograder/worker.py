@@ -24,7 +24,7 @@ import nbgrader.api
 from nbgrader.api import Gradebook, MissingEntry
 from nbgrader.utils import compute_checksum
 
-from autograder import sandbox
+from autograder import kernels, sandbox
 from autograder.course import api
 from autograder.feedback import add_notice, is_test_cell
 from autograder.integrity import grading_code_changes
@@ -192,6 +192,7 @@ def grade(job: Job) -> Result:
         },
     )
     started = time.monotonic()
+    kernels.REAPED.clear()
     # The kernel's only network; the judge joins it (verdicts.Judging).
     with (
         sandbox.Network() as network,
@@ -280,6 +281,15 @@ def grade(job: Job) -> Result:
         )
         message = f"{message} {said}".strip()
         add_notice(page, "Grading code changed", said, status)
+    if kernels.REAPED:
+        said = (
+            "Your notebook kept its sandbox at the limit of "
+            f"{sandbox.Limits.processes} processes and threads (programs started and "
+            f"never ended), leaving the kernel no room: the grader ended "
+            f"{sum(kernels.REAPED)} of them so that the other cells could run."
+        )
+        add_notice(page, "Processes ended", said, "error")
+        message = f"{message} {said}".strip()
     destination = Path(job.feedback)
     destination.parent.mkdir(parents=True, exist_ok=True)
     shutil.copy(page, destination)

@@ -11,9 +11,10 @@ from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import pytest
+from nbformat.v4 import new_code_cell, new_notebook
 from traitlets.config import Config
 
-from autograder import cgroups, sandbox
+from autograder import cgroups, kernels, sandbox
 from autograder.kernels import IpcKernelManager
 from tests.test_sandbox import private as private  # noqa: F401 - a fixture used here
 from tests.test_sandbox import ros_env
@@ -243,3 +244,37 @@ def test_a_grading_kernel_runs_in_a_cgroup_of_the_configured_size(writable) -> N
     with ThreadPoolExecutor(1) as pool:
         group = pool.submit(asyncio.run, run()).result()
     assert group.gone.is_set() and not any(f.exists() for f in group.directories())
+
+
+SPAWN = """import subprocess
+kids = []
+try:
+    while True:
+        kids.append(subprocess.Popen(['sleep', '600']))
+except OSError as exc:
+    print('stopped at', len(kids), exc.errno)
+"""
+AFTER = """import threading
+room = threading.Thread(target=print, args=('room for a thread',))
+room.start()
+room.join()
+print('left running:', sum(kid.poll() is None for kid in kids))
+"""
+
+
+def test_a_kernel_left_at_its_process_limit_gets_room_back(writable, tmp_path) -> None:
+    """A cell that fills the sandbox's pids.max with programs it keeps would leave the
+    kernel no room for a thread (every later cell and check hangs to the submission's
+    time limit): before the next cell those programs are ended, the kernel kept."""
+    config = Config({"IpcKernelManager": {"processes": 64}})
+    notebook = new_notebook(cells=[new_code_cell(SPAWN), new_code_cell(AFTER)])
+    kernels.REAPED.clear()
+    execute = kernels.CappedExecute(
+        config=config, kernel_manager_class=kernels.IpcKernelManager, timeout=int(GUARD)
+    )
+    with ThreadPoolExecutor(1) as pool:  # an earlier test's Playwright may hold this loop
+        pool.submit(execute.preprocess, notebook, {"metadata": {"path": str(tmp_path)}}).result()
+    spawned, after = ("".join(o.get("text", "") for o in c.outputs) for c in notebook.cells)
+    assert spawned.startswith("stopped at") and spawned.endswith(" 11\n"), spawned  # EAGAIN
+    assert after == "room for a thread\nleft running: 0\n", notebook.cells[1].outputs
+    assert kernels.REAPED and kernels.REAPED[0] >= 30, kernels.REAPED
