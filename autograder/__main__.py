@@ -9,7 +9,7 @@ import sys
 import tempfile
 from pathlib import Path
 
-from autograder.config import LABS, lab_ids
+from autograder.config import CELL_TIMEOUT_S, LABS, lab_ids
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -22,7 +22,10 @@ def main(argv: list[str] | None = None) -> int:
     g.add_argument("--workers", type=int, default=2, help="submissions graded at once")
     g.add_argument("--out", type=Path, default=Path("grading"), help="where results go")
     g.add_argument(
-        "--timeout", type=int, default=30, help="seconds one cell may run before it is interrupted"
+        "--timeout",
+        type=int,
+        default=CELL_TIMEOUT_S,
+        help="seconds one cell may run before it is interrupted",
     )
     g.add_argument(
         "--submission-timeout",
@@ -53,7 +56,7 @@ def main(argv: list[str] | None = None) -> int:
 
     c = sub.add_parser("check", help="run a lab notebook's visible checks")
     c.add_argument("notebook", type=Path, help="a lab notebook, or a lab id")
-    c.add_argument("--timeout", type=int, default=30, help="seconds per cell")
+    c.add_argument("--timeout", type=int, default=CELL_TIMEOUT_S, help="seconds per cell")
     c.add_argument("--log", type=Path, help="where the nodes' log lines go")
 
     args = parser.parse_args(argv)

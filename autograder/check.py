@@ -24,7 +24,7 @@ import nbformat
 from nbclient.exceptions import DeadKernelError
 from nbgrader.utils import determine_grade
 
-from autograder.config import LABS, ROOT, nbgrader_config
+from autograder.config import CELL_TIMEOUT_S, LABS, ROOT, nbgrader_config
 from autograder.feedback import is_test_cell
 from autograder.integrity import grading_code_changes
 from autograder.kernels import CappedExecute
@@ -145,7 +145,7 @@ def big_outputs(notebook: nbformat.NotebookNode, limit: int = BIG_OUTPUT_BYTES) 
     return found
 
 
-def check(path: Path, cell_timeout: int = 30, log: Path | None = None) -> SelfCheck:
+def check(path: Path, cell_timeout: int = CELL_TIMEOUT_S, log: Path | None = None) -> SelfCheck:
     """Run ``path`` as grading will: its visible checks, the cells that timed out or
     raised, the locked cells that differ from the release, the lines that reach into
     the grading code (``autograder.integrity``) and the big outputs saved in it.

@@ -13,6 +13,9 @@ PACKAGE_DIR = Path(__file__).resolve().parent
 ROOT = PACKAGE_DIR.parent
 SOLUTIONS = ROOT / "solutions"
 LABS = ROOT / "labs"
+#: Seconds one cell may run before it is interrupted (a hang guard: a try-it cell that
+#: builds a package with colcon needs a generous one on a busy machine).
+CELL_TIMEOUT_S = 60
 
 # nbgrader runs `alembic` (its database migrations) as a command: the venv's bin
 # folder must be on PATH even when the venv's python was started by its full path.

@@ -30,7 +30,7 @@ from typing import TextIO
 import nbformat
 from nbgrader.api import Gradebook
 
-from autograder.config import SOLUTIONS, lab_ids
+from autograder.config import CELL_TIMEOUT_S, SOLUTIONS, lab_ids
 from autograder.course import generate
 from autograder.feedback import write_notice_page
 from autograder.gradebook import CellComment, CellGrade, add_assignment, read_scratch
@@ -414,7 +414,7 @@ def grade_class(
     out: Path,
     assignment_id: str | None = None,
     workers: int = 2,
-    cell_timeout: int = 30,
+    cell_timeout: int = CELL_TIMEOUT_S,
     submission_timeout: float = 600.0,
     resume: bool = False,
     students: list[str] | None = None,
