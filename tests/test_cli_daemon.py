@@ -119,10 +119,11 @@ SAME = [
 
 
 def test_answers_through_the_daemon_equal_the_direct_path(env: dict[str, str]) -> None:
-    with ThreadPoolExecutor(max_workers=4) as pool:  # the direct ones mostly wait
-        direct = list(pool.map(lambda argv: ros2(env, *argv, "--no-daemon"), SAME))
-    for argv, cold in zip(SAME, direct, strict=True):
-        through = ros2(env, *argv)
+    with ThreadPoolExecutor(max_workers=len(SAME)) as pool:  # the commands mostly wait
+        direct = pool.map(lambda argv: ros2(env, *argv, "--no-daemon"), SAME)
+        through_daemon = pool.map(lambda argv: ros2(env, *argv), SAME)
+        runs = list(zip(SAME, direct, through_daemon, strict=True))
+    for argv, cold, through in runs:
         assert (through.returncode, through.stdout, through.stderr) == (
             cold.returncode,
             cold.stdout,
@@ -144,6 +145,9 @@ def test_the_daemon_path_does_not_import_rclpy_and_no_daemon_does(env: dict[str,
     assert " rclpy\n" in imports("node", "list", "--no-daemon")
 
 
+# waits out a killed participant's DDS lease: slow tier (the daemon's answers are
+# checked in the fast tier by test_answers_through_the_daemon_equal_the_direct_path)
+@pytest.mark.slow
 def test_a_node_started_later_shows_up_and_a_killed_one_goes_away(
     env: dict[str, str], tmp_path: Path
 ) -> None:
@@ -197,6 +201,8 @@ def test_only_a_run_that_says_so_starts_a_daemon_by_itself() -> None:
     assert f'os.environ["{daemon.SWITCH}"] = "1"' in config.read_text()  # make lab's server
 
 
+# starts, kills and restarts daemons in two domains: slow tier
+@pytest.mark.slow
 def test_two_domains_two_daemons_that_never_see_each_other(env: dict[str, str]) -> None:
     """The other one is started by its first command (as outside isolated runs); a
     killed daemon's files are removed by the next one to start; a daemon whose socket
