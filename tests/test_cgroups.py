@@ -70,6 +70,8 @@ def ended(proc: subprocess.Popen[str], group: cgroups.Cgroup) -> str:
     return out
 
 
+# waits for ten throttled periods, longer on a loaded machine: slow tier
+@pytest.mark.slow
 def test_a_busy_sandbox_gets_at_most_its_cpu_quota(tmp_path, private, writable) -> None:
     """A busy loop is throttled at its quota: CPU used <= quota x periods it ran in
     (the kernel's own counters; on a loaded machine it may get less, never more)."""
@@ -94,6 +96,8 @@ def test_a_busy_sandbox_gets_at_most_its_cpu_quota(tmp_path, private, writable) 
     assert used > 0
 
 
+# two sandboxes, one filled up to its limit: slow tier
+@pytest.mark.slow
 def test_a_memory_hog_is_oom_killed_in_its_sandbox_and_its_neighbour_lives(
     tmp_path, private, writable
 ) -> None:

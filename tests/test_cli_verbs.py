@@ -161,6 +161,8 @@ def test_topic_pub_w_waits_for_a_subscriber_that_appears_later(fixture_node) -> 
     assert "publishing #1: std_msgs.msg.String(data='late')" in command.lines
 
 
+# pub is checked in the fast tier by test_topic_pub_once_is_received_by_a_live_subscriber
+@pytest.mark.slow
 def test_topic_pub_times_with_header_auto_stamps_each_message(fixture_node) -> None:
     values = "{header: auto, pose: {position: {x: 1.5}}}"
     result = run(
@@ -332,6 +334,8 @@ def test_param_dump_then_load_round_trips_on_a_live_node(fixture_node, tmp_path:
     assert values == {"speed": 1.5, "limits.max": 3, "gains": array("q", [1, 2, 3])}
 
 
+# dump and load are checked in the fast tier by the live node's round trip
+@pytest.mark.slow
 def test_param_dump_and_load_of_an_unknown_node(fixture_node, tmp_path: Path) -> None:
     result = run("param", "dump", "/nobody_here")
     assert (result.returncode, result.stdout, result.stderr) == (1, "", "Node not found\n")
