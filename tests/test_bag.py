@@ -210,6 +210,8 @@ def test_bag_info_of_a_folder_without_a_bag_is_one_line_and_exit_1(tmp_path) -> 
     assert "no metadata.yaml" in err and len(err.strip().splitlines()) == 1
 
 
+# record is checked in the fast tier by the ``recorded`` tests
+@pytest.mark.slow
 def test_record_refuses_an_existing_output_folder_and_no_topics(tmp_path) -> None:
     process = ros2("bag", "record", "-o", str(tmp_path), "/chatter")
     _, err = process.communicate(timeout=TIMEOUT_S)

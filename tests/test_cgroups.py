@@ -152,6 +152,9 @@ input()
 """
 
 
+# the process limit is checked in the fast tier by test_sandbox's limits test, a
+# program entered later by test_a_program_entered_into_a_sandbox_joins_its_cgroup
+@pytest.mark.slow
 def test_a_fork_bomb_stops_at_pids_max_and_a_program_entered_later_is_counted(
     tmp_path, private, writable
 ) -> None:

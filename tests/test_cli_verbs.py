@@ -146,6 +146,8 @@ def test_topic_pub_once_is_received_by_a_live_subscriber(fixture_node) -> None:
     got.clear()
 
 
+# pub is checked in the fast tier by test_topic_pub_once_is_received_by_a_live_subscriber
+@pytest.mark.slow
 def test_topic_pub_w_waits_for_a_subscriber_that_appears_later(fixture_node) -> None:
     command = Command(
         "topic", "pub", "-w", "1", "-1", "/pub_late", "std_msgs/msg/String", "{data: late}"
@@ -253,6 +255,8 @@ def test_service_echo_shows_a_real_request_and_response(fixture_node) -> None:
     assert events[0]["info"]["sequence_number"] == events[1]["info"]["sequence_number"]
 
 
+# service echo is checked in the fast tier by test_service_echo_shows_a_real_request_and_response
+@pytest.mark.slow
 def test_service_echo_without_introspection_says_so_and_waits(fixture_node) -> None:
     command = Command("service", "echo", "/verbs_fixture/list_parameters")
     command.wait_until(lambda: bool(command.lines), "a first line")
