@@ -119,11 +119,10 @@ SAME = [
 
 
 def test_answers_through_the_daemon_equal_the_direct_path(env: dict[str, str]) -> None:
-    with ThreadPoolExecutor(max_workers=len(SAME)) as pool:  # the commands mostly wait
-        direct = pool.map(lambda argv: ros2(env, *argv, "--no-daemon"), SAME)
-        through_daemon = pool.map(lambda argv: ros2(env, *argv), SAME)
-        runs = list(zip(SAME, direct, through_daemon, strict=True))
-    for argv, cold, through in runs:
+    with ThreadPoolExecutor(max_workers=4) as pool:  # the direct ones mostly wait
+        direct = list(pool.map(lambda argv: ros2(env, *argv, "--no-daemon"), SAME))
+    for argv, cold in zip(SAME, direct, strict=True):
+        through = ros2(env, *argv)
         assert (through.returncode, through.stdout, through.stderr) == (
             cold.returncode,
             cold.stdout,
