@@ -210,6 +210,8 @@ def test_bag_info_of_a_folder_without_a_bag_is_one_line_and_exit_1(tmp_path) -> 
     assert "no metadata.yaml" in err and len(err.strip().splitlines()) == 1
 
 
+# record is checked in the fast tier by the ``recorded`` tests
+@pytest.mark.slow
 def test_record_refuses_an_existing_output_folder_and_no_topics(tmp_path) -> None:
     process = ros2("bag", "record", "-o", str(tmp_path), "/chatter")
     _, err = process.communicate(timeout=TIMEOUT_S)
@@ -257,6 +259,8 @@ def test_play_publishes_a_foreign_bag_in_order_at_its_timing(foreign_bag, node) 
         assert sent[k] - sent[0] >= k * 0.4e9 / rate - 1e6, (k, sent)
 
 
+# play is checked in the fast tier by test_play_publishes_a_foreign_bag_in_order_at_its_timing
+@pytest.mark.slow
 def test_play_loop_starts_over_until_ctrl_c(foreign_bag, node) -> None:
     received: list[str] = []
     node.create_subscription(String, "chatter", lambda msg: received.append(msg.data), 10)
@@ -342,6 +346,8 @@ def test_bag_info_of_upstreams_bag_prints_what_upstream_expects(storage: str) ->
     ) in out
 
 
+# play is checked in the fast tier by test_play_publishes_a_foreign_bag_in_order_at_its_timing
+@pytest.mark.slow
 def test_play_publishes_upstreams_bag_byte_for_byte(node) -> None:
     """Every message of rosbag2's own MCAP bag reaches a live subscriber, each topic's
     in the bag's order, as the same CDR bytes (read from the file by the mcap library)."""
@@ -367,6 +373,8 @@ def test_play_publishes_upstreams_bag_byte_for_byte(node) -> None:
         assert [d for t, d in received if t == topic] == [d for t, d in expected if t == topic]
 
 
+# record is checked in the fast tier by the ``recorded`` tests
+@pytest.mark.slow
 def test_record_leaves_out_a_topic_whose_type_is_not_installed(tmp_path, node) -> None:
     """As upstream: one warning, and the other topics are recorded. The recorder runs
     where test_msgs cannot be imported (a package this process has and it has not)."""

@@ -71,6 +71,8 @@ def ended(proc: subprocess.Popen[str], group: cgroups.Cgroup) -> str:
     return out
 
 
+# waits for ten throttled periods, longer on a loaded machine: slow tier
+@pytest.mark.slow
 def test_a_busy_sandbox_gets_at_most_its_cpu_quota(tmp_path, private, writable) -> None:
     """A busy loop is throttled at its quota: CPU used <= quota x periods it ran in
     (the kernel's own counters; on a loaded machine it may get less, never more)."""
@@ -95,6 +97,8 @@ def test_a_busy_sandbox_gets_at_most_its_cpu_quota(tmp_path, private, writable) 
     assert used > 0
 
 
+# two sandboxes, one filled up to its limit: slow tier
+@pytest.mark.slow
 def test_a_memory_hog_is_oom_killed_in_its_sandbox_and_its_neighbour_lives(
     tmp_path, private, writable
 ) -> None:
@@ -149,6 +153,9 @@ input()
 """
 
 
+# the process limit is checked in the fast tier by test_sandbox's limits test, a
+# program entered later by test_a_program_entered_into_a_sandbox_joins_its_cgroup
+@pytest.mark.slow
 def test_a_fork_bomb_stops_at_pids_max_and_a_program_entered_later_is_counted(
     tmp_path, private, writable
 ) -> None:

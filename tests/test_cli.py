@@ -70,9 +70,6 @@ COMMANDS = {
     "unknown node": ["node", "info", "/nobody"],
 }
 
-#: Commands run at once (each is mostly waiting for discovery; the machine has 2 cores).
-PARALLEL = 5
-
 
 @pytest.fixture(scope="module")
 def runs(
@@ -90,21 +87,26 @@ def runs(
         # talker be up and discoverable first
         assert graph.wait_for(lambda g: "/talker" in graph.node_names(g), timeout=15.0)
         ros.reset()
+        # all at once: each is mostly waiting (for discovery, for messages, for hz's
+        # window), and none depends on another
+        procs = {
+            name: subprocess.Popen(
+                [
+                    sys.executable,
+                    "-m",
+                    "rosbook.cli",
+                    *(a.replace("{tmp}", str(tmp)) for a in argv),
+                ],
+                stdout=subprocess.PIPE,
+                stderr=subprocess.PIPE,
+                text=True,
+            )
+            for name, argv in COMMANDS.items()
+        }
         results = {}
-        names = list(COMMANDS)
-        for start in range(0, len(names), PARALLEL):
-            procs = {}
-            for name in names[start : start + PARALLEL]:
-                argv = [a.replace("{tmp}", str(tmp)) for a in COMMANDS[name]]
-                procs[name] = subprocess.Popen(
-                    [sys.executable, "-m", "rosbook.cli", *argv],
-                    stdout=subprocess.PIPE,
-                    stderr=subprocess.PIPE,
-                    text=True,
-                )
-            for name, proc in procs.items():
-                out, err = proc.communicate(timeout=60)
-                results[name] = subprocess.CompletedProcess(proc.args, proc.returncode, out, err)
+        for name, proc in procs.items():
+            out, err = proc.communicate(timeout=120)
+            results[name] = subprocess.CompletedProcess(proc.args, proc.returncode, out, err)
         results["svg"] = subprocess.CompletedProcess([], 0, (tmp / "graph.svg").read_text(), "")
         yield results
     finally:

@@ -144,6 +144,9 @@ def test_the_daemon_path_does_not_import_rclpy_and_no_daemon_does(env: dict[str,
     assert " rclpy\n" in imports("node", "list", "--no-daemon")
 
 
+# waits out a killed participant's DDS lease: slow tier (the daemon's answers are
+# checked in the fast tier by test_answers_through_the_daemon_equal_the_direct_path)
+@pytest.mark.slow
 def test_a_node_started_later_shows_up_and_a_killed_one_goes_away(
     env: dict[str, str], tmp_path: Path
 ) -> None:
@@ -197,6 +200,8 @@ def test_only_a_run_that_says_so_starts_a_daemon_by_itself() -> None:
     assert f'os.environ["{daemon.SWITCH}"] = "1"' in config.read_text()  # make lab's server
 
 
+# starts, kills and restarts daemons in two domains: slow tier
+@pytest.mark.slow
 def test_two_domains_two_daemons_that_never_see_each_other(env: dict[str, str]) -> None:
     """The other one is started by its first command (as outside isolated runs); a
     killed daemon's files are removed by the next one to start; a daemon whose socket

@@ -3,6 +3,7 @@ session spins, so a node of the same kernel answers it."""
 
 from __future__ import annotations
 
+import pytest
 from rclpy.node import Node
 from std_msgs.msg import String
 
@@ -22,6 +23,8 @@ def test_inline_ros2_reads_more_output_than_a_pipe_holds(session: Session) -> No
     assert len(result.stdout) > 200 * 1024
 
 
+# waits out its limit: slow tier
+@pytest.mark.slow
 def test_inline_ros2_says_timeout_when_the_command_outlives_it(session: Session) -> None:
     # echo waits for a first message from a publisher that never publishes; the limit
     # stops it.

@@ -227,6 +227,9 @@ def test_topic_echo_no_publisher() -> None:
     )
 
 
+# topic hz is checked in the fast tier by test_cli.py's
+# test_topic_hz_reports_the_rate_of_a_20_hz_publisher
+@pytest.mark.slow
 def test_topic_hz() -> None:
     # ros2topic/test/test_cli.py::test_topic_hz: from the first line on, only rates
     # (upstream prints nothing before it has one)

@@ -146,6 +146,8 @@ def test_topic_pub_once_is_received_by_a_live_subscriber(fixture_node) -> None:
     got.clear()
 
 
+# pub is checked in the fast tier by test_topic_pub_once_is_received_by_a_live_subscriber
+@pytest.mark.slow
 def test_topic_pub_w_waits_for_a_subscriber_that_appears_later(fixture_node) -> None:
     command = Command(
         "topic", "pub", "-w", "1", "-1", "/pub_late", "std_msgs/msg/String", "{data: late}"
@@ -161,6 +163,8 @@ def test_topic_pub_w_waits_for_a_subscriber_that_appears_later(fixture_node) -> 
     assert "publishing #1: std_msgs.msg.String(data='late')" in command.lines
 
 
+# pub is checked in the fast tier by test_topic_pub_once_is_received_by_a_live_subscriber
+@pytest.mark.slow
 def test_topic_pub_times_with_header_auto_stamps_each_message(fixture_node) -> None:
     values = "{header: auto, pose: {position: {x: 1.5}}}"
     result = run(
@@ -251,6 +255,8 @@ def test_service_echo_shows_a_real_request_and_response(fixture_node) -> None:
     assert events[0]["info"]["sequence_number"] == events[1]["info"]["sequence_number"]
 
 
+# service echo is checked in the fast tier by test_service_echo_shows_a_real_request_and_response
+@pytest.mark.slow
 def test_service_echo_without_introspection_says_so_and_waits(fixture_node) -> None:
     command = Command("service", "echo", "/verbs_fixture/list_parameters")
     command.wait_until(lambda: bool(command.lines), "a first line")
@@ -332,6 +338,8 @@ def test_param_dump_then_load_round_trips_on_a_live_node(fixture_node, tmp_path:
     assert values == {"speed": 1.5, "limits.max": 3, "gains": array("q", [1, 2, 3])}
 
 
+# dump and load are checked in the fast tier by the live node's round trip
+@pytest.mark.slow
 def test_param_dump_and_load_of_an_unknown_node(fixture_node, tmp_path: Path) -> None:
     result = run("param", "dump", "/nobody_here")
     assert (result.returncode, result.stdout, result.stderr) == (1, "", "Node not found\n")

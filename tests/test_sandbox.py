@@ -173,6 +173,9 @@ time.sleep(600)
 """
 
 
+# a program entered into a sandbox is checked in the fast tier by test_cgroups'
+# test_a_program_entered_into_a_sandbox_joins_its_cgroup
+@pytest.mark.slow
 def test_a_trusted_process_runs_a_program_inside_a_running_sandbox(tmp_path, private) -> None:
     """``enter_argv``: the student's program runs as the student, in the sandbox's
     folders and PIDs, without the grader's environment; Ctrl-C reaches it and its exit

@@ -116,6 +116,8 @@ def test_a_still_goes_inside_the_scene_box_and_in_print() -> None:
 @pytest.mark.skipif(
     chromium_path() is None, reason="NO BROWSER: install Debian's chromium to draw stills"
 )
+# drives a browser (Chromium) like the book build: slow tier
+@pytest.mark.slow
 def test_the_still_camera_draws_the_robot_in_the_middle_of_its_picture() -> None:
     scene = viz.show(robots.diff_drive(), camera=(0.9, 0.7, 0.5), height=300)
     (found,) = scene_stills.scenes_in(scene.shared_html())

@@ -223,6 +223,8 @@ def _ended(pid: int) -> bool:
 
 
 @pytest.mark.skipif(sys.platform != "linux", reason="PR_SET_PDEATHSIG is Linux only")
+# starts a MeshCat server in a kernel of its own: slow tier
+@pytest.mark.slow
 def test_live_server_ends_when_its_kernel_is_killed() -> None:
     script = (
         "from rosbook import viz\n"
