@@ -269,6 +269,7 @@ print('left running:', sum(kid.poll() is None for kid in kids))
 """
 
 
+@pytest.mark.slow  # a kernel filled to its limit; the fork-bomb test above is its kin
 def test_a_kernel_left_at_its_process_limit_gets_room_back(writable, tmp_path) -> None:
     """A cell that fills the sandbox's pids.max with programs it keeps would leave the
     kernel no room for a thread (every later cell and check hangs to the submission's
