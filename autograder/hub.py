@@ -70,6 +70,7 @@ from traitlets.config.loader import PyFileConfigLoader
 from autograder import relay
 from autograder.cgroups import Cgroup
 from autograder.sandbox import HOME, Limits, Network, prepare, start
+from rosbook import jupyter_assignments
 from rosbook.runtime.isolation import BASE_ENV
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -89,10 +90,12 @@ INSTRUCTOR_TOOLS = ("formgrader", "course-list", "create-assignment")
 #: student): nbgrader's instructor side; jupyter_lsp (no language server is
 #: installed); jupytext (labs are notebooks: its JupyterLab plugin goes too);
 #: notebook_shim (for classic-notebook extensions: none here). What the labs use stays:
-#: nbgrader's Assignments tab and validate, terminals, the proxy for live 3D views.
+#: terminals, the proxy for live 3D views, and nbgrader's Assignments tab and validate,
+#: whose imports wait for their first use (``rosbook.jupyter_assignments``, on instead).
 STUDENT_OFF = (
     "nbgrader.server_extensions.formgrader",
     "nbgrader.server_extensions.course_list",
+    *jupyter_assignments.EXTENSIONS,
     "jupyter_lsp",
     "jupyterlab_jupytext",
     "notebook_shim",
@@ -237,7 +240,10 @@ class SandboxSpawner(SimpleLocalProcessSpawner):  # type: ignore[misc]
             *(
                 []
                 if self.user.admin
-                else [f"--ServerApp.jpserver_extensions={name}=False" for name in STUDENT_OFF]
+                else [
+                    *(f"--ServerApp.jpserver_extensions={name}=False" for name in STUDENT_OFF),
+                    f"--ServerApp.jpserver_extensions={jupyter_assignments.__name__}=True",
+                ]
             ),
             f"--config={self.jupyter_config}",
             f"--ServerApp.sock={RUN}/jupyter.sock",

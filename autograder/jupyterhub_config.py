@@ -13,8 +13,16 @@ the environment:
   use in all (its cgroup's CPU quota and memory limit; default 1 CPU and 1024 MB).
 - ``ROSBOOK_HUB_DIR``: the hub's state: roster, database, cookie secret, each student's
   home (``home/NAME``) and sockets (default ``.hub/`` in the project).
+- ``ROSBOOK_HUB_LTI13_ISSUER``, ``..._CLIENT_ID``, ``..._AUTHORIZE_URL``,
+  ``..._JWKS_URL`` (all four, from the LMS's registration of the hub as an LTI 1.3 tool;
+  the hub's own settings for it are at ``/hub/lti13/config``): people log in from the
+  LMS (``jupyterhub-ltiauthenticator``, usernames its ``email`` claim) instead of with
+  passwords. The roster still names the course's people at the hub's start, with their
+  LMS usernames: only they may log in, its instructors are the admins, and release,
+  collect and feedback go to its students; its passwords go unused.
 """
 
+import json
 import os
 import shlex
 import socket
@@ -51,6 +59,18 @@ c.JupyterHub.cleanup_proxy = True
 c.JupyterHub.authenticator_class = RosterAuthenticator
 c.Authenticator.any_allow_config = True  # the roster decides (check_allowed)
 c.RosterAuthenticator.roster = str(state / "roster.json")
+if os.environ.get("ROSBOOK_HUB_LTI13_ISSUER"):
+    lti = {key: os.environ[f"ROSBOOK_HUB_LTI13_{key.upper()}"] for key in
+           ("issuer", "client_id", "authorize_url", "jwks_url")}  # fmt: skip
+    c.JupyterHub.authenticator_class = "ltiauthenticator.lti13.auth.LTI13Authenticator"
+    c.LTI13Authenticator.issuer = lti["issuer"]
+    c.LTI13Authenticator.client_id = {lti["client_id"]}
+    c.LTI13Authenticator.authorize_url = lti["authorize_url"]
+    c.LTI13Authenticator.jwks_endpoint = lti["jwks_url"]
+    roster = state / "roster.json"
+    people = json.loads(roster.read_text()) if roster.exists() else {}
+    c.Authenticator.allowed_users = set(people)
+    c.Authenticator.admin_users = {name for name, person in people.items() if person["instructor"]}
 
 c.JupyterHub.spawner_class = SandboxSpawner
 c.SandboxSpawner.home_dir_template = str(state / "home" / "{username}")

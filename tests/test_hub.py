@@ -10,15 +10,19 @@ network of its own). Stopping the hub must leave no process of any student.
 
 from __future__ import annotations
 
+import json
 import os
 import signal
 import socket
 import subprocess
 import sys
 import time
+import urllib.error
+import urllib.request
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
+from urllib.parse import parse_qs, urlencode, urlparse
 
 import nbformat
 import pytest
@@ -117,12 +121,20 @@ def _terminal(page: Any, command: str) -> None:
     page.keyboard.type(command + "\n")
 
 
-def _wait_for_text(path: Path, end: str) -> str:
-    deadline = time.monotonic() + CELL_S
+def _wait_for_text(path: Path, end: str, timeout: float = CELL_S) -> str:
+    deadline = time.monotonic() + timeout
     while end not in (path.read_text() if path.exists() else ""):
         assert time.monotonic() < deadline, f"timeout: {path} never ended with {end}"
         time.sleep(0.2)  # polling for the file the terminal writes
     return path.read_text()
+
+
+def _wait_for_files(folder: Path, pattern: str) -> list[Path]:
+    deadline = time.monotonic() + CELL_S
+    while not (found := sorted(folder.glob(pattern))):
+        assert time.monotonic() < deadline, f"timeout: nothing like {pattern} in {folder}"
+        time.sleep(0.2)  # polling for the files the server writes
+    return found
 
 
 def _hub_command(hub: dict[str, Any], *args: str) -> str:
@@ -137,42 +149,69 @@ def _hub_command(hub: dict[str, Any], *args: str) -> str:
     return done.stdout
 
 
+def _assignments_tab(page: Any) -> Any:
+    """The Assignments tab, opened from JupyterLab's Nbgrader menu as a student would."""
+    page.locator(".lm-MenuBar-item", has_text="Nbgrader").click(timeout=START_S * 1000)
+    page.locator(".lm-Menu-item", has_text="Assignment List").click(timeout=START_S * 1000)
+    tab = page.locator("#nbgrader-assignment-list")
+    tab.wait_for(timeout=START_S * 1000)
+    return tab
+
+
+def _click_in_tab(tab: Any, listing: str, button: str) -> None:
+    """Click ``button`` on the lab's row of the tab's ``listing`` (released, fetched or
+    submitted), once the server lists it there."""
+    row = tab.locator(f"#{listing}_assignments_list .list_item", has_text=LAB)
+    row.locator("button", has_text=button).first.click(timeout=CELL_S * 1000)
+
+
 def test_release_submit_grade_and_feedback(browser, hub, tmp_path: Path) -> None:
-    """nbgrader's flow through each student's own exchange: the last student submits
-    the lab as released (unanswered), the others answer it."""
+    """nbgrader's flow through each student's own exchange, in the Assignments tab:
+    each student clicks Fetch, solves and validates in a terminal, clicks Submit and,
+    once graded, Fetch Feedback. The last student submits the lab as released
+    (unanswered), the others answer it."""
     url, state = hub["url"], hub["state"]
     pages = {name: _log_in(browser, url, name, hub["passwords"][name]) for name in STUDENTS}
     for name, page in pages.items():
         page.wait_for_url(f"**/user/{name}/lab**", timeout=START_S * 1000)
         page.wait_for_function("() => window.jupyterapp !== undefined", timeout=START_S * 1000)
     assert _hub_command(hub, "autograder.hub", "release", LAB).split()[2:] == list(STUDENTS)
+    tabs = {name: _assignments_tab(page) for name, page in pages.items()}
+    for tab in tabs.values():
+        _click_in_tab(tab, "released", "Fetch")
     for name, page in pages.items():
+        tabs[name].locator("#fetched_assignments_list .list_item", has_text=LAB).first.wait_for(
+            timeout=CELL_S * 1000
+        )  # fetched: the tab lists it as downloaded
         solve = "true" if name == STUDENTS[-1] else f"cp ~/answers.ipynb ~/{LAB}/{LAB}.ipynb"
         _terminal(
             page,
-            f"(nbgrader fetch_assignment {LAB} && {solve} && nbgrader validate {LAB}/{LAB}.ipynb"
-            f" && nbgrader submit {LAB}) > ~/flow.txt 2>&1; echo end-of-flow >> ~/flow.txt",
+            f"({solve} && nbgrader validate {LAB}/{LAB}.ipynb) > ~/flow.txt 2>&1;"
+            " echo end-of-flow >> ~/flow.txt",
         )
     for name in STUDENTS:
-        flow = _wait_for_text(state / "home" / name / "flow.txt", "end-of-flow")
-        assert "Submitted as:" in flow, (name, flow)
+        # validate runs the whole lab in the student's 1-CPU sandbox: a grader's guard
+        flow = _wait_for_text(state / "home" / name / "flow.txt", "end-of-flow", GRADE_S)
         if name != STUDENTS[-1]:
             assert "Success! Your notebook passes all the tests." in flow, (name, flow)
+    for name, page in pages.items():
+        page.locator(".lm-TabBar-tab", has_text="Assignments").click(timeout=START_S * 1000)
+        _click_in_tab(tabs[name], "fetched", "Submit")
+    for tab in tabs.values():
+        submitted = tab.locator("#submitted_assignments_list .list_item", has_text=LAB)
+        submitted.first.wait_for(timeout=CELL_S * 1000)
     submissions, graded = tmp_path / "submissions", tmp_path / "graded"
     collected = _hub_command(hub, "autograder.hub", "collect", LAB, str(submissions))
     assert collected.split()[2:] == list(STUDENTS)
     _hub_command(hub, "autograder", "grade", str(submissions), "--out", str(graded))
     returned = _hub_command(hub, "autograder.hub", "feedback", LAB, str(graded))
     assert returned.split()[2:] == list(STUDENTS)
-    for page in pages.values():
-        _terminal(
-            page, f"nbgrader fetch_feedback {LAB} > ~/fb.txt 2>&1; echo end-of-fb >> ~/fb.txt"
-        )
+    for tab in tabs.values():
+        _click_in_tab(tab, "submitted", "Fetch Feedback")
     scores = {}
     for name in STUDENTS:
-        _wait_for_text(state / "home" / name / "fb.txt", "end-of-fb")
-        pages_seen = list((state / "home" / name / LAB / "feedback").glob(f"*/{LAB}.html"))
-        assert len(pages_seen) == 1, (name, (state / "home" / name / "fb.txt").read_text())
+        pages_seen = _wait_for_files(state / "home" / name / LAB / "feedback", f"*/{LAB}.html")
+        assert len(pages_seen) == 1, (name, pages_seen)
         own = (graded / "feedback" / name / LAB / f"{LAB}.html").read_bytes()
         assert pages_seen[0].read_bytes() == own, name  # their own, as graded
         scores[name] = own
@@ -231,3 +270,49 @@ def test_students_are_isolated_and_nothing_survives_the_hub(browser, hub) -> Non
     os.kill(int((state / "jupyterhub.pid").read_text()), signal.SIGINT)
     hub["server"].wait(timeout=STOP_S)
     assert _alive(processes) == []
+
+
+class _NoRedirect(urllib.request.HTTPRedirectHandler):
+    def redirect_request(self, *args: Any, **kwargs: Any) -> None:
+        return None  # the redirect is the answer under test
+
+
+def test_lti13_launch_goes_to_the_lms(tmp_path: Path) -> None:
+    """``make hub`` with an LMS's LTI 1.3 registration in its environment: it serves the
+    tool's settings for the LMS, and a launch from the LMS goes back to the LMS's
+    authorization with the hub's client id (the roster still names who may log in)."""
+    add(tmp_path / "roster.json", STUDENTS[0])
+    lms, client = "https://lms.example.edu", "rosbook-hub"
+    env = child_env()
+    env.update(
+        ROSBOOK_HUB_DIR=str(tmp_path),
+        ROSBOOK_HUB_LTI13_ISSUER=lms,
+        ROSBOOK_HUB_LTI13_CLIENT_ID=client,
+        ROSBOOK_HUB_LTI13_AUTHORIZE_URL=f"{lms}/auth",
+        ROSBOOK_HUB_LTI13_JWKS_URL=f"{lms}/jwks",
+    )
+    url = f"http://127.0.0.1:{_free_port()}"
+    with (tmp_path / "hub.log").open("w") as log:
+        try:
+            server = serve(url, env, log)
+        except (RuntimeError, TimeoutError) as exc:
+            pytest.fail(f"{exc}:\n" + (tmp_path / "hub.log").read_text())
+        try:
+            with urllib.request.urlopen(f"{url}/hub/lti13/config", timeout=START_S) as answer:
+                tool = json.loads(answer.read())
+            assert tool["oidc_initiation_url"] == f"{url}/hub/lti13/oauth_login", tool
+            launch = urlencode(
+                {"iss": lms, "login_hint": STUDENTS[0], "target_link_uri": f"{url}/hub",
+                 "client_id": client}
+            )  # fmt: skip
+            opener = urllib.request.build_opener(_NoRedirect)
+            with pytest.raises(urllib.error.HTTPError) as redirect:
+                opener.open(f"{url}/hub/lti13/oauth_login?{launch}", timeout=START_S)
+            assert redirect.value.code == 302, redirect.value
+            to = urlparse(redirect.value.headers["Location"])
+            assert f"{to.scheme}://{to.netloc}{to.path}" == f"{lms}/auth", to
+            asked = parse_qs(to.query)
+            assert asked["client_id"] == [client] and asked["login_hint"] == [STUDENTS[0]]
+            assert asked["redirect_uri"] == [f"{url}/hub/lti13/oauth_callback"], asked
+        finally:
+            stop(server, STOP_S)
