@@ -436,7 +436,7 @@ def assert_clean_exit(run: ScriptRun, timeout: float = 5.0) -> None:
         )
 
 
-def wait_for_script_publisher(run: ScriptRun, probe: Probe, timeout: float = 10.0) -> None:
+def wait_for_script_publisher(run: ScriptRun, probe: Probe, timeout: float = 30.0) -> None:
     """Wait until the script's publisher is matched; fail with its output if it died."""
     matched = ros.spin_until(
         lambda: probe.sub.get_publisher_count() > 0 or not run.alive(), timeout=timeout
