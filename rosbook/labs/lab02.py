@@ -55,7 +55,8 @@ def describe(qos: QoSProfile) -> str:
     """``RELIABLE, VOLATILE, depth 10, deadline 1 s``: the policies a mismatch is about."""
     deadline = qos.deadline.nanoseconds
     parts = [qos.reliability.name, qos.durability.name, f"depth {qos.depth}"]
-    parts.append(f"deadline {deadline / 1e9:g} s" if deadline else "no deadline")
+    # DDS discovery reports an unset deadline as the infinite one (2**63 - 1 ns)
+    parts.append(f"deadline {deadline / 1e9:g} s" if 0 < deadline < 2**63 - 1 else "no deadline")
     return ", ".join(parts)
 
 
