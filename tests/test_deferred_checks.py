@@ -70,5 +70,8 @@ def test_only_the_next_cell_is_deferred(kernel: Any, tmp_path: Path) -> None:
     assert run(kernel, "checks.assert_sequence('s', [1], [1])")["ename"] == "CheckDeferred"
     failed = run(kernel, "checks.assert_sequence('s', [1], [2])")
     assert (failed["status"], failed["ename"]) == ("error", "CheckFailed"), failed
+    # a traceback through a check (here a TypeError in it) never shows the deferral
+    broken = run(kernel, "checks.assert_sequence('s', None, [1])")
+    assert broken["ename"] == "TypeError" and "Deferred" not in "".join(broken["traceback"])
     assert run(kernel, STARTS_MARKER)["status"] == "ok"
     assert (tmp_path / "ran").read_text() == "yes"

@@ -62,6 +62,7 @@ def deferrable(namespace: dict[str, Any]) -> None:
     def wrap(check: Callable[..., Any]) -> Callable[..., Any]:
         @functools.wraps(check)
         def deferrable_check(*args: Any, **kwargs: Any) -> Any:
+            __tracebackhide__ = True  # noqa: F841 (IPython and pytest leave this frame out)
             if _deferring:
                 raise CheckDeferred(DEFERRED)
             return check(*args, **kwargs)
