@@ -13,7 +13,6 @@ from collections.abc import Callable, Sequence
 
 import numpy as np
 
-from rosbook.labs.deferral import deferrable
 from rosbook.robots import urdf
 from rosbook.robots.urdf import Robot, URDFError
 from rosbook.viz import scene as viz
@@ -267,6 +266,3 @@ def turtlebot_like_robot(half_separation: float = 0.08) -> str:
         + wheel.format(side="right", y=-half_separation)
         + "</robot>"
     )
-
-
-deferrable(globals())
