@@ -446,29 +446,6 @@ def stop(server: subprocess.Popen[bytes], timeout: float = 120.0) -> None:
         server.wait()
 
 
-def process_tree(root: int) -> dict[int, str]:
-    """Every process under ``root``: pid -> its start time (tells a reused pid apart)."""
-    children: dict[int, list[int]] = {}
-    starts: dict[int, str] = {}
-    for entry in Path("/proc").iterdir():
-        if not entry.name.isdigit():
-            continue
-        try:
-            stat = (entry / "stat").read_text()
-        except OSError:
-            continue
-        fields = stat.rsplit(")", 1)[1].split()
-        children.setdefault(int(fields[1]), []).append(int(entry.name))
-        starts[int(entry.name)] = fields[19]
-    found: dict[int, str] = {}
-    todo = [root]
-    while todo:
-        for child in children.get(todo.pop(), []):
-            found[child] = starts[child]
-            todo.append(child)
-    return found
-
-
 def add(roster: Path, name: str, instructor: bool = False) -> str:
     """Add (or reset) ``name`` in ``roster``; the new password (shown once)."""
     people = json.loads(roster.read_text()) if roster.exists() else {}

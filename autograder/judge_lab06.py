@@ -56,6 +56,7 @@ from autograder.judge import (
 from autograder.judge_lab01 import CLOCK_RETRY_S
 from rosbook.labs import lab06
 from rosbook.labs.probes import Probe, ScriptRun, run_program
+from rosbook.launch.launcher import ESCALATING
 from rosbook.runtime.session import ros
 
 #: What the hidden checks expect (the lab's contract).
@@ -302,7 +303,7 @@ def raced(codes: dict[str, int], lines: list[str]) -> bool:
     an exit code, so this is rclpy's own race on SIGINT (a hang in ``spin()``, a crash
     in shutdown), seen with the lab's own nodes on a loaded machine."""
     return any(code < 0 and code != -signal.SIGINT for code in codes.values()) or any(
-        "still running: sending SIGTERM" in line for line in lines
+        f"{ESCALATING}SIGTERM" in line for line in lines
     )
 
 
@@ -398,8 +399,11 @@ def talker_rates(node: Node) -> dict[str, float | None]:
 
 def run_on_clock(node: Node, probes: dict[str, Any]) -> dict[str, int]:
     clock = clock_publisher(node)
-    listeners = lambda: clock.get_subscription_count() >= 4  # noqa: E731
-    if not ros.spin_until(listeners, node, timeout=START_GUARD_S):
+
+    def listening() -> bool:
+        return clock.get_subscription_count() >= 4
+
+    if not ros.spin_until(listening, node, timeout=START_GUARD_S):
         raise CheckFailed(
             "the launched nodes do not all listen to /clock although the check adds "
             "SetParameter('use_sim_time', True) first: did the description change "

@@ -26,7 +26,6 @@ the feedback page.
 from __future__ import annotations
 
 import asyncio
-import contextlib
 import json
 import os
 import shutil
@@ -188,12 +187,12 @@ class IpcKernelManager(AsyncKernelManager):
 def end_strays(first: int) -> list[int]:
     """End every process below the sandbox's first one (bwrap's PID 1) but the oldest,
     the kernel; their PIDs inside the sandbox (the kernel must reap its children)."""
-    children = _children(first)
-    if not children:
+    below = sandbox.process_tree(first)
+    if not below:
         return []
-    kernel = min(children, key=_started_at)
+    kernel = min(below, key=lambda pid: int(below[pid]))
     ended = []
-    for pid in _below(first) - {kernel}:
+    for pid in set(below) - {kernel}:
         try:
             status = Path(f"/proc/{pid}/status").read_text()
             os.kill(pid, signal.SIGKILL)
@@ -209,32 +208,6 @@ REAP = (
     "import os as _os\nfor _pid in {pids!r}:\n    try:\n        _os.waitpid(_pid, 0)\n"
     "    except ChildProcessError:\n        pass\ndel _os, _pid\n"
 )
-
-
-def _children(pid: int) -> set[int]:
-    found: set[int] = set()
-    for task in Path(f"/proc/{pid}/task").glob("*"):
-        with contextlib.suppress(OSError):
-            found |= {int(c) for c in (task / "children").read_text().split()}
-    return found
-
-
-def _below(pid: int) -> set[int]:
-    """Every descendant of ``pid``."""
-    found, todo = set(), [pid]
-    while todo:
-        for child in _children(todo.pop()) - found:
-            found.add(child)
-            todo.append(child)
-    return found
-
-
-def _started_at(pid: int) -> int:
-    try:
-        stat = Path(f"/proc/{pid}/stat").read_text()
-    except OSError:
-        return 1 << 62
-    return int(stat.rsplit(")", 1)[1].split()[19])  # field 22: start time in ticks
 
 
 class CappedExecute(Execute):  # type: ignore[misc]

@@ -577,6 +577,29 @@ def join(
     os.execvp(cmd[0], cmd)
 
 
+def process_tree(root: int) -> dict[int, str]:
+    """Every process under ``root``: pid -> its start time (tells a reused pid apart)."""
+    children: dict[int, list[int]] = {}
+    starts: dict[int, str] = {}
+    for entry in Path("/proc").iterdir():
+        if not entry.name.isdigit():
+            continue
+        try:
+            stat = (entry / "stat").read_text()
+        except OSError:
+            continue
+        fields = stat.rsplit(")", 1)[1].split()
+        children.setdefault(int(fields[1]), []).append(int(entry.name))
+        starts[int(entry.name)] = fields[19]
+    found: dict[int, str] = {}
+    todo = [root]
+    while todo:
+        for child in children.get(todo.pop(), []):
+            found[child] = starts[child]
+            todo.append(child)
+    return found
+
+
 def enter_argv(pid: int, cwd: str, cmd: Sequence[str], limits: Limits = Limits()) -> list[str]:
     """``cmd`` run as the student inside the running sandbox whose first process is ``pid``
     (from ``cwd``, a path inside it), under the sandbox's limits.

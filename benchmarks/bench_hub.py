@@ -20,7 +20,8 @@ import time
 from collections.abc import Iterator
 from pathlib import Path
 
-from autograder.hub import add, process_tree, serve, stop
+from autograder.hub import add, serve, stop
+from autograder.sandbox import process_tree
 from benchmarks import Figure
 from rosbook.book.chromium import chromium_path, launch
 from rosbook.runtime.isolation import child_env

@@ -28,7 +28,8 @@ import nbformat
 import pytest
 
 from autograder.config import ROOT
-from autograder.hub import COURSE, add, process_tree, serve, stop
+from autograder.hub import COURSE, add, serve, stop
+from autograder.sandbox import process_tree
 from rosbook.runtime.isolation import child_env
 from tests.labtools import answered
 from tests.test_jupyterlab import CELL_S, LAB, START_S, _index, _run_cell, _wait_for_notebook

@@ -700,6 +700,9 @@ class Process:
         return self.popen.poll() is None
 
 
+#: What the launcher says of a process Ctrl-C did not stop, before the signal's name.
+ESCALATING = "still running: sending "
+
 #: Launches not shut down yet: stopped when the interpreter exits.
 _running: set[Launch] = set()
 
@@ -986,7 +989,7 @@ class Launch:
             while self.running() and time.monotonic() < deadline:
                 self.pump(0.05)
             for process in self.running():
-                self.say(f"[WARNING] [{process.name}]: still running: sending {sig.name}")
+                self.say(f"[WARNING] [{process.name}]: {ESCALATING}{sig.name}")
                 self._signal(process, sig)
         for process in self.processes:
             process.popen.wait()
