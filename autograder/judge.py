@@ -133,7 +133,9 @@ class _RosbookJudgeAgent:
         action, whose feedback can be sent while the judge holds a time; "taken" counts
         the messages its subscriptions' callbacks took, by topic (said again at once when
         it grows: the judge sends a sensor reading and waits for it to be taken before it
-        moves time on)."""
+        moves time on); "readers" lists, by topic the node publishes on, the subscriptions
+        (GIDs) its participant has discovered: a publisher sends only to those it knows,
+        so the judge waits to be among them before it lets the node send."""
         import json
         import time
         import rclpy
@@ -154,6 +156,15 @@ class _RosbookJudgeAgent:
             counts["feedback"] = counts.get("feedback", 0) + 1
             feedback_at.append(self.node.get_clock().now().nanoseconds)
             return original_feedback(handle, feedback)
+
+        name, ns = self.node.get_name(), self.node.get_namespace()
+        sending = [topic for topic, _ in self.node.get_publisher_names_and_types_by_node(name, ns)
+                   if topic not in ("/rosout", "/parameter_events")]
+
+        def readers():
+            return {topic: [bytes(e.endpoint_gid).hex()
+                            for e in acker.get_subscriptions_info_by_topic(topic)]
+                    for topic in sending}
 
         taken = {}
         callbacks = []
@@ -191,7 +202,7 @@ class _RosbookJudgeAgent:
                 if time.monotonic() - sent > 0.1:  # again, while the judge waits for it
                     msg.data = json.dumps({
                         "now": last, "published": counts, "feedback_at": feedback_at,
-                        "taken": taken,
+                        "taken": taken, "readers": readers(),
                     })
                     ack.publish(msg)
                     sent = time.monotonic()

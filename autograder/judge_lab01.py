@@ -86,7 +86,7 @@ def published_on_sim_time(
     The kernel's word only paces the judge: what is judged is what arrives."""
     listener = Listener(topic, msg_type)
     clock = clock_publisher(listener.node)
-    acked: list[dict[str, Any]] = [{"now": -1, "published": {}}]
+    acked: list[dict[str, Any]] = [_ack("")]
     acks = listener.node.create_subscription(
         String, "/rosbook_judge/clock_ack", lambda m: acked.append(_ack(m.data)), 10
     )
@@ -101,6 +101,7 @@ def published_on_sim_time(
         listener.node,
         what=f"node '{name}' did not start on /clock",
     )
+    wait_until_discovered(acked, listener.node, topic, listener.node.get_name(), name)
     times: list[float] = []
     t = 0.0
     while t < seconds - 1e-9:
@@ -137,9 +138,34 @@ def _ack(text: str) -> dict[str, Any]:
             "published": dict(ack["published"]),
             "feedback_at": [int(t) for t in ack.get("feedback_at", [])],
             "taken": dict(ack.get("taken", {})),
+            "readers": {str(k): set(v) for k, v in dict(ack.get("readers", {})).items()},
         }
     except (ValueError, KeyError, TypeError):
-        return {"now": -1, "published": {}, "feedback_at": [], "taken": {}}
+        return {"now": -1, "published": {}, "feedback_at": [], "taken": {}, "readers": {}}
+
+
+def wait_until_discovered(
+    acked: list[dict[str, Any]], node: Node, topic: str, reader: str, name: str
+) -> None:
+    """Wait until the kernel's node ``name`` says (in its acks) that it discovered every
+    subscription of the judge's node ``reader`` on ``topic``. Its publisher sends only to
+    the subscriptions it knows: what it sent before would be lost, not late. (The judge's
+    side matching says nothing of that: discovery runs on each side on its own.)"""
+
+    def discovered() -> bool:
+        mine = {
+            bytes(e.endpoint_gid).hex()
+            for e in node.get_subscriptions_info_by_topic(topic)
+            if e.node_name == reader
+        }
+        return bool(mine) and mine <= acked[-1]["readers"].get(topic, set())
+
+    wait_for(
+        discovered,
+        node,
+        what=f"node '{name}' did not discover the judge's subscription on {topic}",
+        guard=3 * EVENT_GUARD_S,
+    )
 
 
 def check_counter_publisher(j: Judgement) -> None:

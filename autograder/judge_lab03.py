@@ -36,7 +36,13 @@ from autograder.judge import (
     clock_publisher,
     ros_node,
 )
-from autograder.judge_lab01 import _ack, require_endpoint, require_name, wait_for
+from autograder.judge_lab01 import (
+    _ack,
+    require_endpoint,
+    require_name,
+    wait_for,
+    wait_until_discovered,
+)
 from rosbook.labs import lab03 as service_checks
 from rosbook.labs.probes import Probe, assert_sequence
 from rosbook.runtime.actions import GoalRun
@@ -113,9 +119,7 @@ class RemoteClock:
         self.kernel, self.name = j.kernel, name
         self.node = ros_node("judge_clock")
         self.clock = clock_publisher(self.node)
-        self.acked: list[dict[str, Any]] = [
-            {"now": -1, "published": {}, "feedback_at": [], "taken": {}}
-        ]
+        self.acked: list[dict[str, Any]] = [_ack("")]
         self.acks = self.node.create_subscription(
             String, "/rosbook_judge/clock_ack", lambda m: self.acked.append(_ack(m.data)), 10
         )
@@ -167,7 +171,9 @@ class RemoteClock:
                 raise JudgeTimeout(f"node '{self.name}' did not follow /clock to t = {t:g} s")
         published = self.acked[-1]["published"]
         if not ros.spin_until(lambda: self.arrived(published), *watched, timeout=LOCKSTEP_GUARD_S):
-            raise JudgeTimeout(f"what node '{self.name}' sent at t = {t:g} s did not arrive")
+            raise JudgeTimeout(
+                f"what node '{self.name}' sent at t = {t:g} s ({published}) did not arrive"
+            )
 
     def finish(self) -> None:
         """Let the kernel's following end; a callback's exception there comes out as a
@@ -282,7 +288,17 @@ def _goal(clock: RemoteClock, order: int, cancel_after: int | None = None) -> Go
     arrived = [0]
     clock.arrived = lambda published: arrived[0] >= published.get("feedback", 0) - before
     run = service_checks.countdown(
-        clock, order, cancel_after, on_feedback=lambda _: arrived.__setitem__(0, arrived[0] + 1)
+        clock,
+        order,
+        cancel_after,
+        on_feedback=lambda _: arrived.__setitem__(0, arrived[0] + 1),
+        on_ready=lambda: wait_until_discovered(
+            clock.acked,
+            clock.node,
+            "/countdown/_action/feedback",
+            service_checks.CLIENT_NODE,
+            clock.name,
+        ),
     )
     wait_for(
         lambda: len(clock.acked[-1]["feedback_at"]) >= before + len(run.feedback),

@@ -239,14 +239,20 @@ def sim_spinner(
     return spin
 
 
+#: The node of the check's action client.
+CLIENT_NODE = "countdown_check_client"
+
+
 def countdown(
     clock: SimClock,
     order: int,
     cancel_after: int | None = None,
     on_feedback: Callable[[Any], None] | None = None,
+    on_ready: Callable[[], None] | None = None,
 ) -> GoalRun:
-    """Send a countdown goal to ``countdown`` from a client node of the check."""
-    client = Node("countdown_check_client")
+    """Send a countdown goal to ``countdown`` from a client node of the check
+    (``CLIENT_NODE``); ``on_ready`` as for ``run_goal``."""
+    client = Node(CLIENT_NODE)
     try:
         return run_goal(
             client,
@@ -256,6 +262,7 @@ def countdown(
             timeout=GOAL_SIM_TIMEOUT_S,
             cancel_after=cancel_after,
             on_feedback=on_feedback,
+            on_ready=on_ready,
             spin=sim_spinner(clock),
         )
     except ServiceCallError as exc:

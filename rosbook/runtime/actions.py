@@ -85,12 +85,16 @@ def run_goal(
     cancel_after: int | None = None,
     on_feedback: Callable[[Any], None] | None = None,
     on_accepted: Callable[[str], None] | None = None,
+    on_ready: Callable[[], None] | None = None,
     spin: Callable[[Callable[[], bool], float], bool] | None = None,
 ) -> GoalRun:
     """Send ``goal`` to ``action`` and follow it to its end (or until ``timeout``).
 
     ``cancel_after=n`` requests cancellation once ``n`` feedback messages arrived.
-    ``on_feedback(feedback)`` and ``on_accepted(goal_id_hex)`` are called as they come.
+    ``on_feedback(feedback)`` and ``on_accepted(goal_id_hex)`` are called as they come;
+    ``on_ready()`` once the server is found, before the goal goes out (a check in another
+    process waits there until the server has discovered the client's feedback
+    subscription: feedback sent before that is lost).
     Interrupted (Ctrl-C, a notebook's stop button) while the goal runs, it requests the
     goal's cancellation before the ``KeyboardInterrupt`` goes on, as ``ros2 action
     send_goal`` does.
@@ -104,6 +108,8 @@ def run_goal(
     label = f"{node.resolve_topic_name(action)} ({interface_name(action_type)})"
     try:
         wait_for_server(client, label, timeout)
+        if on_ready is not None:
+            on_ready()
 
         def now() -> float:
             return node.get_clock().now().nanoseconds / 1e9
