@@ -53,10 +53,12 @@ def _judge_with_node(self, function, node_name, args, collect):
     self.made = get_ipython().user_ns[function](
         self.node, *args, *([self.collected.append] if collect else []))
     name, ns = self.node.get_name(), self.node.get_namespace()
+    depth = getattr(getattr(self.made, "qos_profile", None), "depth", None)
     self._answer({
         "type": type(self.made).__name__, "repr": repr(self.made)[:200], "name": name,
         "publishers": self.node.get_publisher_names_and_types_by_node(name, ns),
         "subscriptions": self.node.get_subscriber_names_and_types_by_node(name, ns),
+        "depth": depth if type(depth) is int else None,
     })
 
 
@@ -175,6 +177,8 @@ def check_map_publisher(j: Judgement) -> None:
         require_endpoint(info, "/map", String, "publisher")
         j.wait_on_graph(node_name, "/map", "publisher")
         offered = endpoint_qos(node_name, "/map", "publisher")
+        if offered.depth == 0 and info.get("depth"):  # discovery does not tell the depth:
+            offered.depth = info["depth"]  # the kernel's, for the message only
         j.kernel.call("publish_strings", maps)
         qos_checks.late_joiner_receives(maps, offered, guard=MATCH_GUARD_S)
 

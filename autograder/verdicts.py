@@ -3,15 +3,20 @@
 ``JudgedExecute`` is nbgrader's ``Execute`` preprocessor that, just before each judged
 test cell runs in the student's kernel, asks the judge process (``autograder.judge``)
 for its verdict on that cell, with the kernel in the state the student's cells left it.
-The verdicts stay in the grading worker, outside the kernel; ``apply_verdicts`` then
-makes them the cells' scores in the gradebook (as nbgrader's manual score, so
-feedback and totals show them) and names the cells whose output claimed a pass the
-judge did not give.
+The cell then runs in the kernel deferred (``rosbook.labs.deferral``; unless the feedback
+keeps figures its checks show, ``shows_figures``): its checks raise
+``CheckDeferred`` at once instead of running a second time, and the cell's output shows
+the judge's verdict instead. Honest code cannot pass a deferred cell in the kernel, so
+a pass there is a forged one. The verdicts stay in the grading worker, outside the
+kernel; ``apply_verdicts`` then makes them the cells' scores in the gradebook (as
+nbgrader's manual score, so feedback and totals show them) and names the cells whose
+output claimed a pass the judge did not give.
 """
 
 from __future__ import annotations
 
 import json
+import re
 import subprocess
 import sys
 from collections.abc import Iterator
@@ -21,6 +26,7 @@ from pathlib import Path
 from typing import Any
 
 from nbformat import NotebookNode
+from nbformat.v4 import new_output
 from nbgrader.api import Gradebook
 from nbgrader.preprocessors import Execute
 
@@ -31,6 +37,9 @@ from autograder.kernels import CappedExecute
 
 #: Wall-clock guard on one verdict (a hang guard: hitting it is a "timeout").
 VERDICT_GUARD_S = 300.0
+
+#: Run silently in the kernel just before a judged test cell: its checks are deferred.
+DEFER_CELL = "__import__('rosbook.labs.deferral', fromlist=['_']).defer_this_cell()"
 
 
 @dataclass
@@ -139,10 +148,50 @@ class JudgedExecute(CappedExecute):  # type: ignore[misc]
             folder = getattr(self.km, "sandbox_folder", None) or str(
                 Path(resources.get("metadata", {}).get("path", ".")).resolve()
             )
-            _current.verdicts[grade_id] = _current.verdict(
+            verdict = _current.verdicts[grade_id] = _current.verdict(
                 grade_id, self.km.connection_file, folder, getattr(self.km, "sandbox_pid", None)
             )
+            if not shows_figures(cell.source):
+                defer_next_cell(self.kc)
+            cell, resources = super().preprocess_cell(cell, resources, index)
+            cell.outputs = [
+                verdict_output(verdict) if is_deferral(output) else output
+                for output in cell.outputs
+            ]
+            return cell, resources
         return super().preprocess_cell(cell, resources, index)  # type: ignore[no-any-return]
+
+
+def shows_figures(source: str) -> bool:
+    """Whether a test cell shows figures made by its checks (``checks.show_path(...)``,
+    the labs' ``show_*``): the feedback keeps them, so it runs in the kernel as written."""
+    return re.search(r"\.show_\w+\(", source) is not None
+
+
+def defer_next_cell(client: Any) -> None:
+    """Have the kernel of ``client`` defer the checks of the next cell it runs. Sent
+    ahead of that cell (a kernel runs requests in order), silently: its reply and
+    output are not the cell's, so nbclient skips them."""
+    client.execute(DEFER_CELL, silent=True, store_history=False, stop_on_error=False)
+
+
+def is_deferral(output: NotebookNode) -> bool:
+    """Whether ``output`` is a deferred check's error (``rosbook.labs.deferral``)."""
+    return output.get("output_type") == "error" and output.get("ename") == "CheckDeferred"
+
+
+def verdict_output(verdict: Verdict) -> NotebookNode:
+    """The judge's verdict as the cell's output: a pass, or its error and message."""
+    if verdict.passed:
+        text = "passed: the grader checked this cell on your code, outside your notebook\n"
+        return new_output("stream", name="stdout", text=text)
+    ename = "GraderError" if verdict.broken else "CheckFailed"
+    return new_output(
+        "error",
+        ename=ename,
+        evalue=verdict.message,
+        traceback=[f"{ename}: {verdict.message}"],
+    )
 
 
 def judged_preprocessors() -> list[type]:

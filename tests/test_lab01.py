@@ -119,6 +119,17 @@ def test_wrong_submission_gets_feedback_naming_each_mistake(graded: tuple[dict, 
     assert "did not exit cleanly on Ctrl-C" in page and "ExternalShutdownException" in page
 
 
+def test_feedback_shows_the_judges_verdict_not_the_deferral(graded) -> None:
+    """The judged cells ran deferred in the kernel (their checks raised at once, the
+    judge had decided them): each shows the judge's verdict instead."""
+    right, wrong = feedback(graded[1], "right", LAB), feedback(graded[1], "wrong", LAB)
+    for page in (right, wrong):
+        assert "CheckDeferred" not in page and "the grader checks this cell" not in page
+    assert right.count("passed: the grader checked this cell on your code") == 4
+    assert wrong.count("passed: the grader checked this cell on your code") == 1
+    assert "CheckFailed: " in wrong
+
+
 def test_feedback_never_shows_hidden_tests(graded: tuple[dict, Path]) -> None:
     for student in ("right", "wrong", "tampered"):
         page = feedback(graded[1], student, LAB)

@@ -33,6 +33,7 @@ from sensor_msgs.msg import LaserScan
 from std_msgs.msg import String
 
 from rosbook.demos.qos import POLICIES, predict_processed, rclpy_incompatible_policies
+from rosbook.labs.deferral import deferrable
 from rosbook.labs.probes import (
     MATCH_TIMEOUT_S,
     CheckFailed,
@@ -54,7 +55,8 @@ def describe(qos: QoSProfile) -> str:
     """``RELIABLE, VOLATILE, depth 10, deadline 1 s``: the policies a mismatch is about."""
     deadline = qos.deadline.nanoseconds
     parts = [qos.reliability.name, qos.durability.name, f"depth {qos.depth}"]
-    parts.append(f"deadline {deadline / 1e9:g} s" if deadline else "no deadline")
+    # DDS discovery reports an unset deadline as the infinite one (2**63 - 1 ns)
+    parts.append(f"deadline {deadline / 1e9:g} s" if 0 < deadline < 2**63 - 1 else "no deadline")
     return ", ".join(parts)
 
 
@@ -386,3 +388,6 @@ def assert_incompatibilities_match(
                 f"{call} returned {sorted(got)}; rclpy's own check (qos_check_compatible) "
                 f"says {sorted(want)}: " + "; ".join(detail) + "."
             )
+
+
+deferrable(globals())

@@ -15,6 +15,7 @@ from rclpy.node import Node
 from std_srvs.srv import Trigger
 from test_msgs.action import Fibonacci
 
+from rosbook.labs.deferral import deferrable
 from rosbook.labs.probes import CheckFailed, Probe
 from rosbook.runtime.actions import GoalRun, run_goal
 from rosbook.runtime.interfaces import interface_name
@@ -452,3 +453,6 @@ def _assert_rate_follows(node: Node, clock: SimClock, probe: Probe, outsider: No
     assert gaps and all(abs(g - 0.2) < 0.015 for g in gaps), (
         f"after refused changes 'ticks' came {gaps} s apart; expected 0.2 s still"
     )
+
+
+deferrable(globals())

@@ -13,6 +13,7 @@ from collections.abc import Callable, Sequence
 
 import numpy as np
 
+from rosbook.labs.deferral import deferrable
 from rosbook.robots import urdf
 from rosbook.robots.urdf import Robot, URDFError
 from rosbook.viz import scene as viz
@@ -266,3 +267,6 @@ def turtlebot_like_robot(half_separation: float = 0.08) -> str:
         + wheel.format(side="right", y=-half_separation)
         + "</robot>"
     )
+
+
+deferrable(globals())

@@ -23,6 +23,7 @@ from geometry_msgs.msg import Twist
 from nav_msgs.msg import Odometry
 from rclpy.node import Node
 
+from rosbook.labs.deferral import deferrable
 from rosbook.labs import probes as checks
 from rosbook.sim.diff_drive import body_twist as reference_body_twist
 from rosbook.sim.diff_drive import wheel_speeds as reference_wheel_speeds
@@ -406,3 +407,6 @@ def assert_heading(run: DriveRun, yaw: float, tolerance: float = 0.05) -> None:
         f"the robot ended facing {final:.3f} rad, {error:+.3f} rad from the goal heading "
         f"{yaw:.3f} rad; expected within {tolerance} rad.{hint}"
     )
+
+
+deferrable(globals())

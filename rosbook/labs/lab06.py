@@ -26,6 +26,7 @@ from pathlib import Path
 
 from std_msgs.msg import String
 
+from rosbook.labs.deferral import deferrable
 from rosbook.labs.probes import CheckFailed, Probe
 from rosbook.launch.launcher import (
     Launch,
@@ -604,6 +605,8 @@ def main(argv: list[str] | None = None) -> int:
     print(REPORT + json.dumps({**report, "nonce": request["nonce"]}), flush=True)
     return 0
 
+
+deferrable(globals())
 
 if __name__ == "__main__":
     raise SystemExit(main())

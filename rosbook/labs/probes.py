@@ -10,6 +10,9 @@ In IPython, a cell that calls a checks module leaves the kernel as it found it: 
 nodes it made (probes, the student's nodes it built) are destroyed when the cell ends,
 and a simulated clock it started (``ros.sim_clock()``) gives way to wall time again, so
 the next "try it" cell's timers fire as before the check (``restore_after_checks``).
+
+When grading, a test cell's checks raise ``CheckDeferred`` in the kernel instead of
+running (``rosbook.labs.deferral``): the grader decides that cell outside the kernel.
 """
 
 from __future__ import annotations
@@ -31,6 +34,7 @@ from typing import Any, TypeVar
 from rclpy.node import Node
 from rclpy.qos import QoSProfile
 
+from rosbook.labs.deferral import deferrable
 from rosbook.runtime.graph import absolute_name
 from rosbook.runtime.session import ros
 
@@ -482,3 +486,4 @@ def _where(exc: BaseException) -> str:
 
 
 restore_after_checks()
+deferrable(globals())
