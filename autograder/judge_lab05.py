@@ -29,7 +29,12 @@ from geometry_msgs.msg import Twist
 from nav_msgs.msg import Odometry
 
 from autograder.judge import CheckFailed, Judgement, JudgeTimeout, KernelError
-from autograder.judge_lab01 import require_endpoint, require_name, wait_for
+from autograder.judge_lab01 import (
+    require_endpoint,
+    require_name,
+    wait_for,
+    wait_until_discovered,
+)
 from autograder.judge_lab03 import LOCKSTEP_GUARD_S, RemoteNode, remote_clock
 from rosbook.labs import lab05 as drive_checks
 from rosbook.runtime.session import ros
@@ -116,6 +121,7 @@ def drive(
         )
         until = finish.until(sim)  # type: ignore[arg-type]
         with callbacks_explained(), remote_clock(j, name) as clock:
+            wait_until_discovered(clock.acked, clock.node, "/cmd_vel", sim.node.get_name(), name)
 
             def commands_arrived(published: dict[str, int]) -> bool:
                 sim.node.take_commands()
