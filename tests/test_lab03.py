@@ -102,7 +102,10 @@ def test_synchronous_call_fails_fast_naming_the_deadlock(graded) -> None:
     # the check itself gives up after its deadline and says why.
     assert (r["status"], r["score"]) == ("timeout", "7")
     page = text(graded, "sync_call")
-    assert "call_trigger(node, 'check_trigger', 2.0) did not return within 4 s" in page
+    # the judge's deadline (a hang guard on a busy machine) is longer than a self-check's
+    assert re.search(
+        r"call_trigger\(node, 'check_trigger', 2.0\) did not return within \d+ s", page
+    )
     assert "deadlock of a synchronous call inside a callback" in page
     assert "client.call_async(request)" in page
 
