@@ -147,8 +147,11 @@ def _drop_to_nobody() -> dict[str, object]:
     return {"user": NOBODY, "group": NOBODY, "extra_groups": []} if _as_root() else {}
 
 
-def _read_info(fd: int, proc: subprocess.Popen[bytes], what: str) -> dict[str, int]:
-    """bwrap's ``--info-fd`` JSON: the sandbox's first process and its namespaces."""
+def _read_info(
+    fd: int, proc: subprocess.Popen[bytes], what: str, line: bytes = b""
+) -> dict[str, int]:
+    """bwrap's ``--info-fd`` JSON: the sandbox's first process and its namespaces (or,
+    with ``line``, the sandbox's command saying ``line`` on ``fd``: ``{}``)."""
     data = b""
     deadline = time.monotonic() + SETUP_TIMEOUT
     try:
@@ -163,6 +166,10 @@ def _read_info(fd: int, proc: subprocess.Popen[bytes], what: str) -> dict[str, i
             if not chunk:
                 break
             data += chunk
+            if line:
+                if data.startswith(line + b"\n"):
+                    return {}
+                continue
             try:
                 return json.loads(data)  # type: ignore[no-any-return]
             except ValueError:
@@ -184,6 +191,7 @@ class Network:
 
     def __init__(self) -> None:
         read_end, write_end = os.pipe()
+        up_read, up_write = os.pipe()
         # stdin is a pipe the holder waits on: it ends when we close it or die.
         holder = [
             bwrap(),
@@ -208,13 +216,13 @@ class Network:
             "--",
             "/bin/sh",
             "-c",
-            "read _",
+            "echo up; read _",
         ]
         try:
             self.proc = subprocess.Popen(
                 holder,
                 stdin=subprocess.PIPE,
-                stdout=subprocess.DEVNULL,
+                stdout=up_write,
                 stderr=subprocess.PIPE,
                 pass_fds=(write_end,),
                 env={"PATH": "/usr/bin:/bin"},
@@ -222,10 +230,21 @@ class Network:
             )
         except OSError as exc:
             os.close(read_end)
+            os.close(up_read)
             raise _unavailable("starting bwrap", str(exc)) from exc
         finally:
             os.close(write_end)
-        self.pid = int(_read_info(read_end, self.proc, "starting a network namespace")["child-pid"])
+            os.close(up_write)
+        try:
+            info = _read_info(read_end, self.proc, "starting a network namespace")
+        except BaseException:
+            os.close(up_read)
+            raise
+        self.pid = int(info["child-pid"])
+        # bwrap tells the pid as soon as the process exists, before its mounts are made: a
+        # process joining then would find an empty root (seen: a hub's first spawn on a
+        # busy machine failed with its cwd missing). Its command runs once they are made.
+        _read_info(up_read, self.proc, "starting a network namespace", b"up")
 
     def join_argv(
         self,

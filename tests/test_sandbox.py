@@ -289,3 +289,15 @@ def test_without_user_namespaces_the_error_names_the_fix(tmp_path, private) -> N
         pytest.skip("cannot forbid user namespaces in a child namespace here")
     assert "unprivileged user namespaces" in result.stdout, result.stdout + result.stderr
     assert "never run unsandboxed" in result.stdout
+
+
+def test_a_network_is_joinable_once_made() -> None:
+    """bwrap tells its process's pid before that process has made its mounts; a process
+    joining the network then found an empty root (a course server's first spawn, on a
+    busy machine: "No such file or directory" for its working folder). A ``Network`` is
+    returned only once its holder runs its command, with every mount made."""
+    for _ in range(10):
+        with sandbox.Network() as network:
+            command = Path(f"/proc/{network.pid}/cmdline").read_bytes().split(b"\0")
+            assert command[:2] == [b"/bin/sh", b"-c"], command
+            assert Path(f"/proc/{network.pid}/root{ROOT}").is_dir()
