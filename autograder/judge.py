@@ -296,7 +296,9 @@ class Kernel:
     def __init__(self, connection_file: str) -> None:
         self.client = BlockingKernelClient(connection_file=connection_file)
         self.client.load_connection_file()
-        self.client.start_channels()
+        # No heartbeat: a reply's guard already tells a dead kernel, and the heartbeat's
+        # thread kept making sockets for a kernel that was gone (zmq: too many open files)
+        self.client.start_channels(hb=False)
         self.agent_ready = False
         self.defined: set[str] = set()
 
