@@ -1,7 +1,11 @@
-"""rosbook.runtime.executors.MultiThreadedExecutor: rclpy's, without the busy loop of rclpy#1452."""
+"""rosbook.runtime.executors: rclpy's executors, without the busy loop of rclpy#1452 and
+quiet when interrupted while being made."""
 
 from __future__ import annotations
 
+import subprocess
+import sys
+import textwrap
 import threading
 import time
 from collections.abc import Iterator
@@ -110,3 +114,64 @@ def test_an_exception_in_a_callback_reaches_the_spinning_thread(session: Session
                 executor.spin_once(timeout_sec=0.05)
     finally:
         executor.shutdown(timeout_sec=2.0)
+
+
+#: Makes an executor of the class named in argv[1] and sends the process SIGINT as the
+#: executor's constructor calls the function named in argv[2]: its first member (its
+#: guard condition) or one made half-way (its work tracker), before the SIGINT guard
+#: condition its ``__del__`` reads.
+INTERRUPTED_WHILE_MADE = textwrap.dedent("""
+    import importlib, os, signal, sys
+    import rclpy
+    from rclpy.signals import SignalHandlerOptions
+
+    def named(dotted):
+        module, name = dotted.rsplit(".", 1)
+        return getattr(importlib.import_module(module), name)
+
+    rclpy.init(signal_handler_options=SignalHandlerOptions.NO)
+    made = named(sys.argv[1])
+    module, owner, function = sys.argv[2].rsplit(".", 2)
+    point = getattr(named(f"{module}.{owner}"), function).__code__
+
+    def trace(frame, event, arg):
+        if event == "call" and frame.f_code is point:
+            sys.settrace(None)
+            os.kill(os.getpid(), signal.SIGINT)
+
+    sys.settrace(trace)
+    try:
+        made()
+        print("not interrupted")
+    except KeyboardInterrupt:
+        print("interrupted")
+    rclpy.shutdown()
+""")
+
+
+@pytest.mark.parametrize(
+    "point",
+    ["rclpy.guard_condition.GuardCondition.__init__", "rclpy.executors._WorkTracker.__init__"],
+)
+@pytest.mark.parametrize(
+    ("made", "quiet"),
+    [
+        ("rosbook.runtime.executors.SingleThreadedExecutor", True),
+        ("rosbook.runtime.executors.MultiThreadedExecutor", True),
+        ("rclpy.executors.SingleThreadedExecutor", False),  # why ours exist
+    ],
+)
+def test_an_executor_interrupted_while_being_made_writes_nothing_to_stderr(
+    made: str, quiet: bool, point: str
+) -> None:
+    done = subprocess.run(
+        [sys.executable, "-c", INTERRUPTED_WHILE_MADE, made, point],
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    assert done.stdout.strip() == "interrupted", (done.stdout, done.stderr)
+    if quiet:
+        assert done.stderr == ""
+    else:
+        assert "AttributeError" in done.stderr and "_sigint_gc" in done.stderr, done.stderr

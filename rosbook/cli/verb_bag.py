@@ -11,12 +11,13 @@ from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 
 from rclpy.duration import Duration
-from rclpy.executors import SingleThreadedExecutor, TimeoutException
+from rclpy.executors import TimeoutException
 from rclpy.logging import get_logger
 
 from rosbook.cli import cli_node
 from rosbook.cli.reporting import fail, reports_errors
 from rosbook.runtime import bags, graph
+from rosbook.runtime.executors import SingleThreadedExecutor
 
 #: How often ``record`` looks for new topics on the graph (upstream's polling interval).
 POLL_S = 0.1

@@ -23,7 +23,6 @@ from pathlib import Path
 from typing import Any
 
 import yaml
-from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.publisher import Publisher
 from rclpy.qos import (
@@ -48,6 +47,7 @@ from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 from rosbags.typesys.store import Typestore
 
 from rosbook.runtime import graph
+from rosbook.runtime.executors import SingleThreadedExecutor
 from rosbook.runtime.interfaces import InterfaceError, definition, fields, message_class
 
 #: ``ros2 bag record -s``: the storage plugins, Jazzy's default first.

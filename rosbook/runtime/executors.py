@@ -1,4 +1,15 @@
-"""A multi-threaded executor without rclpy's Jazzy busy loop (ros2/rclpy#1452).
+"""rclpy's executors, mended where the Jazzy release trips a course's users.
+
+**An executor interrupted while it is being made says nothing.** rclpy 7.1.6's
+``Executor.__init__`` sets ``_sigint_gc`` last and ``Executor.__del__`` reads it: a Ctrl-C
+(or a notebook's stop button) that lands while an executor is being made leaves a
+half-made object whose ``__del__`` prints "Exception ignored in ... AttributeError" to
+stderr when it is collected, maybe cells later (seen in CI: ``ros2 action send_goal``
+interrupted just after the goal's acceptance; nbgrader scores a test cell 0 when it
+writes to stderr). Both executors here start with ``_sigint_gc = None`` as a class
+attribute, so the half-made one is collected quietly.
+
+**A multi-threaded executor without rclpy's Jazzy busy loop (ros2/rclpy#1452).**
 
 In rclpy 7.1.6 (the Jazzy wheels on PyPI) the multi-threaded executor hands a callback to
 its thread pool and, on its next turn, finds the same task "ready but not executing yet"
@@ -25,6 +36,7 @@ import threading
 from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
 
+from rclpy import executors
 from rclpy.context import Context
 from rclpy.executors import (
     ConditionReachedException,
@@ -40,8 +52,16 @@ from rclpy.task import Future, Task
 _QUEUED_WAIT_S = 0.05
 
 
+class SingleThreadedExecutor(executors.SingleThreadedExecutor):
+    """rclpy's single-threaded executor, quiet when interrupted while being made."""
+
+    _sigint_gc = None  # read by rclpy's __del__; __init__ sets it last
+
+
 class MultiThreadedExecutor(Executor):
     """Same API as ``rclpy.executors.MultiThreadedExecutor``; queues each task once."""
+
+    _sigint_gc = None  # as in SingleThreadedExecutor
 
     def __init__(self, num_threads: int | None = None, *, context: Context | None = None) -> None:
         super().__init__(context=context)

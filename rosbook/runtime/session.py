@@ -39,11 +39,11 @@ from collections.abc import Callable, Iterable
 from typing import Any
 
 import rclpy
-from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.signals import SignalHandlerOptions
 
 from rosbook.runtime.clock import CATCH_UP_TIMEOUT_S, LockstepClock, to_ns
+from rosbook.runtime.executors import SingleThreadedExecutor
 
 #: Period of the busy check inside ``spin_until`` (seconds of wall time).
 POLL_S = 0.01

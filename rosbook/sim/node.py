@@ -43,11 +43,7 @@ from rclpy.event_handler import (
     SubscriptionEventCallbacks,
 )
 from rclpy.exceptions import InvalidHandle
-from rclpy.executors import (
-    ExternalShutdownException,
-    SingleThreadedExecutor,
-    TimeoutException,
-)
+from rclpy.executors import ExternalShutdownException, TimeoutException
 from rclpy.guard_condition import GuardCondition
 from rclpy.impl.implementation_singleton import rclpy_implementation as _rclpy
 from rclpy.node import Node
@@ -61,6 +57,7 @@ from rclpy.waitable import Waitable
 from sensor_msgs.msg import LaserScan
 
 from rosbook.runtime.clock import CATCH_UP_TIMEOUT_S, LockstepClock, stamp, to_ns
+from rosbook.runtime.executors import SingleThreadedExecutor
 from rosbook.runtime.session import Session, notebook_session
 from rosbook.sim.physics import DiffDriveSim, LaserSpec, RobotGeometry, Trajectory, World
 
