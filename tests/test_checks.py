@@ -10,7 +10,7 @@ from rclpy.node import Node
 from std_msgs.msg import Int64, String
 
 from rosbook.labs import lab01 as checks
-from rosbook.runtime.session import Session
+from rosbook.runtime.session import Session, ros
 
 GOOD_MAIN = """
 import rclpy
@@ -33,6 +33,18 @@ def main(args=None):
 
 main()
 """
+
+
+def test_the_rosout_log_has_lines_logged_before_it_listened(session: Session) -> None:
+    early = Node("early_logger")
+    for k in range(3):
+        early.get_logger().info(f"line {k}")
+    log = checks.RosoutLog()
+    try:
+        ros.spin_until(lambda: len(log.of("early_logger")) >= 3, timeout=30.0)  # a hang guard
+        assert log.of("early_logger") == ["line 0", "line 1", "line 2"]
+    finally:
+        log.close()
 
 
 def test_wrong_topic_name_is_named(session: Session) -> None:

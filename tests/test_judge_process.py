@@ -1,17 +1,25 @@
-"""The judge process's life around one submission: started early, ended promptly.
+"""The judge process's life around one submission, and what it reads from a kernel.
 
-Grading speed depends on both: the judge starts (interpreter, rclpy, ROS) while the
+Grading speed depends on both ends: the judge starts (interpreter, rclpy, ROS) while the
 kernel starts rather than at the first judged cell, and it ends as soon as its stdin
-closes instead of asking the already shut-down kernel for a last "stop".
+closes instead of asking the already shut-down kernel for a last "stop". Between them,
+a guard the judge hits while waiting on a kernel's node says timeout, never wrong.
 """
 
 from __future__ import annotations
 
 import json
+import re
 import threading
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 
+import pytest
+from jupyter_client import KernelManager
+
 from autograder import judge, sandbox
+from autograder.judge_lab01 import check_counter_subscriber
 from autograder.verdicts import judging
 from rosbook.runtime.session import Session
 
@@ -67,30 +75,19 @@ def test_a_kernel_says_which_subscriptions_its_node_can_send_to(session: Session
     feedback that way. While following the judge's /clock the kernel names, in its acks,
     the subscriptions its node discovered on each topic it sends on, and the judge waits
     to be among them before time moves."""
-    from jupyter_client import KernelManager
     from std_msgs.msg import Int64, String
 
     from autograder.judge_lab01 import _ack, wait_until_discovered
 
-    km = KernelManager()
-    km.start_kernel()
-    kernel = None
-    try:
-        setup = km.client()
-        setup.start_channels()
-        setup.wait_for_ready(timeout=60)
-        reply = setup.execute_interactive(
-            "from rclpy.node import Node\n"
-            "from std_msgs.msg import Int64\n"
-            "class Talker(Node):\n"
-            "    def __init__(self):\n"
-            "        super().__init__('talker')\n"
-            "        self.pub = self.create_publisher(Int64, 'counter', 10)\n",
-            timeout=60,
-        )
-        assert reply["content"]["status"] == "ok", reply["content"]
-        setup.stop_channels()
-        kernel = judge.Kernel(km.connection_file)
+    talker = (
+        "from rclpy.node import Node\n"
+        "from std_msgs.msg import Int64\n"
+        "class Talker(Node):\n"
+        "    def __init__(self):\n"
+        "        super().__init__('talker')\n"
+        "        self.pub = self.create_publisher(Int64, 'counter', 10)\n"
+    )
+    with judged_kernel(talker) as kernel:
         assert kernel.call("start", "Talker", {}, True)["name"] == "talker"
         node = judge.ros_node("judge_listener")
         acked = [_ack("")]
@@ -112,7 +109,92 @@ def test_a_kernel_says_which_subscriptions_its_node_can_send_to(session: Session
             clock.publish(judge.clock_message(1.0))
             session.spin_until(lambda: False, node, timeout=0.2)
         assert done == [{"timeout": False}]
+
+
+@contextmanager
+def judged_kernel(code: str) -> Iterator[judge.Kernel]:
+    """A kernel that ran ``code`` (a student's cells), as the judge reaches it."""
+    km = KernelManager()
+    km.start_kernel()
+    kernel = None
+    try:
+        setup = km.client()
+        setup.start_channels()
+        setup.wait_for_ready(timeout=60)
+        reply = setup.execute_interactive(code, timeout=60)
+        assert reply["content"]["status"] == "ok", reply["content"]
+        setup.stop_channels()
+        kernel = judge.Kernel(km.connection_file)
+        yield kernel
     finally:
         if kernel is not None:
             kernel.client.stop_channels()
         km.shutdown_kernel(now=True)
+
+
+#: Lab 1's CounterSubscriber whose work is done by a thread, in order, from a queue;
+#: ``WORK`` says how that thread goes.
+QUEUED_SUBSCRIBER = """
+import queue, threading, time
+from rclpy.node import Node
+from std_msgs.msg import Int64
+
+class CounterSubscriber(Node):
+    def __init__(self, node_name='counter_subscriber'):
+        super().__init__(node_name)
+        self.received = []
+        self.inbox = queue.Queue()
+        self.subscription = self.create_subscription(Int64, 'counter', self.inbox.put, 10)
+        threading.Thread(target=self.work, daemon=True).start()
+"""
+#: Right, but the thread starts 12 s late: a starved machine, slower than the judge's
+#: 10 s wait for each value.
+LATE = """
+    def work(self):
+        time.sleep(12)
+        while True:
+            self.received.append(self.inbox.get().data)
+"""
+#: Wrong: zero is dropped (``if msg.data:``); values after it are handled.
+SKIPS_ZERO = """
+    def work(self):
+        while True:
+            value = self.inbox.get().data
+            if value:
+                self.received.append(value)
+"""
+#: Stalls after two values (as a deadlock would), every value before right.
+STALLS = """
+    def work(self):
+        while len(self.received) < 2:
+            self.received.append(self.inbox.get().data)
+        threading.Event().wait()
+"""
+
+
+@pytest.mark.parametrize(
+    ("work", "verdict"),
+    [
+        (LATE, None),
+        (SKIPS_ZERO, r"expected \[7, -2, 0, .*got \[7, -2, 1099511627776"),
+        (STALLS, r"timeout: node 'counter_subscriber' handled 2 of the 3 values sent"),
+    ],
+    ids=["late", "skips-zero", "stalls"],
+)
+def test_a_value_not_handled_in_the_guard_is_waited_out_not_marked_wrong(
+    session: Session, tmp_path: Path, work: str, verdict: str | None
+) -> None:
+    """A subscriber that is slow past the judge's guard passes once it catches up; one
+    that skips a value fails as wrong; one that falls silent, right so far, is a timeout."""
+    with judged_kernel(QUEUED_SUBSCRIBER + work) as kernel:
+        j = judge.Judgement(kernel, tmp_path)
+        if verdict is None:
+            check_counter_subscriber(j)
+            return
+        try:
+            check_counter_subscriber(j)
+        except (AssertionError, judge.JudgeTimeout) as exc:  # wrong (the checks' own), timeout
+            said = f"timeout: {exc}" if isinstance(exc, judge.JudgeTimeout) else str(exc)
+        else:
+            said = "passed"
+        assert re.search(verdict, said), said

@@ -12,7 +12,7 @@ from typing import Any
 
 from rcl_interfaces.msg import Log
 from rclpy.node import Node
-from rclpy.qos import QoSProfile
+from rclpy.qos import DurabilityPolicy, QoSProfile
 
 from rosbook.labs.deferral import deferrable
 from rosbook.labs.probes import *  # noqa: F403 (the shared probes, as checks.X)
@@ -31,12 +31,17 @@ from rosbook.runtime.session import SimClock, ros
 
 
 class RosoutLog:
-    """The log lines nodes send to ``/rosout`` (what ``ros2 topic echo /rosout`` shows)."""
+    """The log lines nodes send to ``/rosout`` (what ``ros2 topic echo /rosout`` shows).
+
+    Transient local, as every node's ``/rosout`` publisher is (rcl keeps its last 1000
+    lines for 10 s): a line logged before the node's publisher discovered this
+    subscription comes late, not never (on a busy machine discovery can take seconds)."""
 
     def __init__(self) -> None:
         self.node = Node("rosout_listener")
         self.lines: list[Log] = []
-        self.node.create_subscription(Log, "/rosout", self.lines.append, QoSProfile(depth=1000))
+        kept = QoSProfile(depth=1000, durability=DurabilityPolicy.TRANSIENT_LOCAL)
+        self.node.create_subscription(Log, "/rosout", self.lines.append, kept)
 
     def of(self, node_name: str) -> list[str]:
         return [line.msg for line in self.lines if line.name == node_name]
