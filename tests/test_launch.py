@@ -302,15 +302,18 @@ def start_launch(env: dict[str, str], *argv: str) -> subprocess.Popen[str]:
     )
 
 
-def read_until(proc: subprocess.Popen[str], marker: str, lines: list[str]) -> list[str]:
-    """Append ``proc``'s output lines to ``lines`` up to the first holding ``marker``
-    (the launcher is SIGKILLed if that takes 30 s)."""
+def read_until(
+    proc: subprocess.Popen[str], marker: str | None, lines: list[str], guard: float = 30.0
+) -> list[str]:
+    """Append ``proc``'s output lines to ``lines`` up to the first holding ``marker``, or
+    to its end if ``marker`` is None (the launcher is SIGKILLed if that takes ``guard``
+    s). Always the same reader: ``communicate`` after it would lose what it read ahead."""
     assert proc.stdout is not None
-    watchdog = threading.Timer(30.0, os.killpg, (proc.pid, signal.SIGKILL))
+    watchdog = threading.Timer(guard, os.killpg, (proc.pid, signal.SIGKILL))
     watchdog.start()
     for line in proc.stdout:
         lines.append(line)
-        if marker in line:
+        if marker is not None and marker in line:
             break
     watchdog.cancel()
     return lines
@@ -343,8 +346,9 @@ def launched_and_stopped(
         if ctrl_c_twice:
             read_until(proc, "shutting down", lines)  # the launcher has begun to stop
             os.killpg(proc.pid, signal.SIGINT)
-        out, _ = proc.communicate(timeout=60)  # a hang guard
-        text = "".join(lines) + out
+        read_until(proc, None, lines, guard=60.0)
+        proc.wait()
+        text = "".join(lines)
         if ESCALATED not in text or attempt == 1:
             return proc.returncode, text
     raise AssertionError("unreachable")
@@ -412,7 +416,8 @@ def test_ros2_run_and_its_node_stop_on_one_ctrl_c(env: dict[str, str]) -> None:
     watchdog.cancel()
     children = Path(f"/proc/{proc.pid}/task/{proc.pid}/children").read_text().split()
     os.killpg(proc.pid, signal.SIGINT)
-    out, _ = proc.communicate(timeout=20)
+    out = "".join(read_until(proc, None, []))
+    proc.wait()
     assert 'Publishing: "hello 0"' in first, first + out
     assert proc.returncode == 0 and "Traceback" not in out, out
     assert len(children) == 1 and not alive(int(children[0]))

@@ -17,7 +17,8 @@ from test_msgs.action import Fibonacci
 from rosbook.demos.nodes import ClockServer, CountdownServer
 from rosbook.labs import lab03 as service_checks
 from rosbook.labs.probes import Probe
-from rosbook.runtime.actions import run_goal, sleep
+from rosbook.runtime.actions import clients_listen, run_goal, sleep
+from rosbook.runtime.executors import SingleThreadedExecutor
 from rosbook.runtime.interfaces import InterfaceError, definition, from_yaml, message_class
 from rosbook.runtime.params import ParameterError, get_parameter, list_parameters, set_parameter
 from rosbook.runtime.services import BackgroundServer, ServiceCallError, call, run_with_deadline
@@ -133,6 +134,29 @@ def test_run_goal_wall_time_prints_feedback(session) -> None:
         on_feedback=lambda f: seen.append(list(f.sequence)),
     )
     assert (run.status_name, seen) == ("SUCCEEDED", [[2], [2, 1], [2, 1, 0]])
+
+
+def test_a_server_waits_for_a_goal_senders_feedback_subscription(session) -> None:
+    """A goal sender whose feedback subscription is not known yet is waited for."""
+    server = Node("server")
+
+    def waited(guard: float) -> bool:
+        executor = SingleThreadedExecutor()
+        executor.add_node(server)
+        task = executor.create_task(clients_listen(server, "countdown", guard))
+        executor.spin_until_future_complete(task, timeout_sec=60.0)
+        executor.shutdown()
+        assert task.done(), "clients_listen outlived its guard"
+        return task.result()
+
+    assert waited(0.1)  # nobody sends goals: nobody to wait for
+    # A goal sender's request writer, without its feedback subscription (yet)
+    Node("sender").create_client(Fibonacci.Impl.SendGoalService, "countdown/_action/send_goal")
+    assert not waited(0.3)
+    Node("listener").create_subscription(
+        Fibonacci.Impl.FeedbackMessage, "countdown/_action/feedback", lambda _: None, 10
+    )
+    assert waited(10.0)
 
 
 class RecordingCountdown(CountdownServer):

@@ -6,8 +6,10 @@ import time
 
 import rclpy
 from rcl_interfaces.msg import Log
+from rclpy.action import ActionClient, ActionServer
 from rclpy.node import Node
 from std_msgs.msg import Int64
+from test_msgs.action import Fibonacci
 
 from rosbook.runtime.session import Session, spin_node_until
 
@@ -42,6 +44,22 @@ def test_recreating_a_node_replaces_the_old_one_first(session: Session) -> None:
     session.spin_until(lambda: False, timeout=0.3)
     second.get_logger().info("still on rosout")
     assert session.spin_until(lambda: any(m.msg == "still on rosout" for m in logs), timeout=3)
+
+
+def test_a_re_run_cells_action_server_and_client_go_with_its_node(session: Session) -> None:
+    class Server(Node):
+        def __init__(self) -> None:
+            super().__init__("countdown_server")
+            self.server = ActionServer(self, Fibonacci, "countdown", lambda handle: None)
+            self.client = ActionClient(self, Fibonacci, "countdown")
+
+    Server()
+    Server()  # the cell again: rclpy's destroy_node alone leaves the first server up
+    eye = Node("eye")
+    assert eye.count_publishers("/countdown/_action/feedback") == 1
+    assert eye.count_subscribers("/countdown/_action/feedback") == 1
+    session.reset()
+    assert Node("eye").count_publishers("/countdown/_action/feedback") == 0
 
 
 def test_same_name_in_another_namespace_is_a_different_node(session: Session) -> None:

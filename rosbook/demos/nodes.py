@@ -25,7 +25,7 @@ from rclpy.parameter import Parameter
 from std_srvs.srv import SetBool, Trigger
 from test_msgs.action import Fibonacci
 
-from rosbook.runtime.actions import sleep
+from rosbook.runtime.actions import clients_listen, sleep
 
 
 class ClockServer(Node):
@@ -78,6 +78,7 @@ class CountdownServer(Node):
 
     async def execute(self, goal_handle: ServerGoalHandle) -> Fibonacci.Result:
         counted = [goal_handle.request.order]
+        await clients_listen(self, "countdown")  # feedback sent before that is lost
         goal_handle.publish_feedback(Fibonacci.Feedback(sequence=counted))
         while counted[-1] > 0:
             await sleep(self, 1.0 / self.get_parameter("rate_hz").value)

@@ -56,6 +56,27 @@ async def sleep(node: Node, seconds: float) -> None:
         node.destroy_timer(timer)
 
 
+async def clients_listen(node: Node, action_name: str, guard: float = 10.0) -> bool:
+    """Wait until this node's participant has found every goal sender's feedback subscription.
+
+    An action server hears of a client's goal-request writer and of its feedback
+    subscription separately (DDS announces writers and readers on channels of their
+    own), so a goal can arrive before its sender's feedback subscription is known:
+    feedback published then reaches nobody and is lost, not late. Each client has one of
+    each, so once the graph counts as many feedback subscriptions as goal senders,
+    every sender listens. Polls the graph on the node's clock; ``guard`` (seconds of
+    that clock) only bounds the wait: ``False`` if it ran out.
+    """
+    name = "/" + action_name.strip("/")
+    senders = f"rq{name}/_action/send_goalRequest"  # the DDS topic of goal requests
+    for _ in range(max(1, round(guard / 0.01))):
+        feedback = node.count_subscribers(f"{name}/_action/feedback")
+        if feedback >= len(node.get_publishers_info_by_topic(senders, no_mangle=True)):
+            return True
+        await sleep(node, 0.01)
+    return False
+
+
 @dataclass
 class GoalRun:
     """What a client saw of one goal: acceptance, feedback in order, final status, result."""

@@ -39,6 +39,7 @@ from collections.abc import Callable, Iterable
 from typing import Any
 
 import rclpy
+from rclpy.action import ActionClient, ActionServer
 from rclpy.node import Node
 from rclpy.signals import SignalHandlerOptions
 
@@ -414,6 +415,14 @@ def _uninstall_tracking(session: Session) -> None:
 
 
 def _destroy(node: Node) -> None:
+    """Destroy ``node`` with its action servers and clients, which ``destroy_node`` leaves
+    alive: a re-run cell's old server would stay on the graph, a second server."""
+    for waitable in list(node.waitables):
+        if isinstance(waitable, (ActionServer, ActionClient)):
+            try:
+                waitable.destroy()
+            except Exception:  # already destroyed
+                pass
     try:
         node.destroy_node()
     except Exception:  # already destroyed, or its context is gone
