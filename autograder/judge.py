@@ -41,7 +41,7 @@ from rclpy.qos import QoSProfile
 from rosgraph_msgs.msg import Clock
 
 from autograder import sandbox
-from rosbook.labs.probes import ScriptRun, run_script
+from rosbook.labs.probes import ScriptRun, StillRunning, run_script
 from rosbook.runtime.session import ros
 
 #: Generous wall-clock guards against hangs; hitting one is reported as "timeout".
@@ -524,7 +524,7 @@ def judge_one(request: dict[str, Any], kernels: dict[str, Kernel]) -> Verdict:
     try:
         check(Judgement(kernel, Path(request["folder"]), request.get("sandbox_pid")))
         return Verdict(grade_id, True)
-    except JudgeTimeout as exc:
+    except (JudgeTimeout, StillRunning) as exc:
         return Verdict(grade_id, False, f"timeout: {exc}", timeout=True)
     except AssertionError as exc:
         return Verdict(grade_id, False, str(exc))

@@ -22,6 +22,7 @@ from autograder import judge, sandbox
 from autograder.judge_lab01 import check_counter_subscriber
 from autograder.verdicts import judging
 from rosbook.runtime.session import Session
+from tests.labtools import solution_answers, strip_markers
 
 
 def test_the_judge_starts_with_the_submission_before_any_cell() -> None:
@@ -198,3 +199,27 @@ def test_a_value_not_handled_in_the_guard_is_waited_out_not_marked_wrong(
         else:
             said = "passed"
         assert re.search(verdict, said), said
+
+
+def test_a_script_still_running_after_ctrl_c_is_a_timeout_not_wrong(
+    session: Session, tmp_path: Path
+) -> None:
+    """The wall-clock guard after Ctrl-C cannot tell a hang from a starved machine."""
+    answer = next(a for a in solution_answers("lab01_nodes_topics").values() if "talker.py" in a)
+    talker = strip_markers(answer).split("\n", 1)[1]  # the program, without %%writefile
+    deaf = "        pass\n    finally:"
+    assert deaf in talker
+    (tmp_path / "talker.py").write_text(
+        "import threading\n"
+        + talker.replace(deaf, "        threading.Event().wait()  # never ends\n    finally:")
+    )
+    with judged_kernel("") as kernel:
+        request = {
+            "check": "test_talker_script",
+            "assignment": "lab01_nodes_topics",
+            "connection_file": kernel.client.connection_file,
+            "folder": str(tmp_path),
+        }
+        verdict = judge.judge_one(request, {kernel.client.connection_file: kernel})
+    assert (verdict.passed, verdict.timeout) == (False, True), verdict
+    assert verdict.message.startswith("timeout: talker.py was still running 15 s after Ctrl-C")
