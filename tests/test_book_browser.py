@@ -180,12 +180,12 @@ def _viewer(scene: str) -> str:
     return f"document.getElementById('{scene}-pane').meshcatViewer"
 
 
-def _still(page: object, scene: str, at: str) -> None:
-    """Pause the scene's animation at the start ("0") or the end ("end") and redraw."""
-    seek = "v.animator.duration" if at == "end" else "0"
+def _still(page: object, scene: str, at: float) -> None:
+    """Pause the scene's animation at fraction ``at`` of its length (0 the start, 1 the end)
+    and redraw."""
     page.evaluate(
         f"() => {{ const v = {_viewer(scene)}; v.animator.pause();"
-        f" v.animator.seek({seek}); v.render(); }}"
+        f" v.animator.seek({at} * v.animator.duration); v.render(); }}"
     )
 
 
@@ -238,7 +238,7 @@ def test_every_scene_shows_its_robot_inside_the_view(
                 assert abs(canvas[0] - box["width"]) <= 2 and abs(canvas[1] - box["height"]) <= 2, (
                     f"{name} {scene}: canvas {canvas} is not the size of its box {box}"
                 )
-                for at in ("0", "end"):
+                for at in (0.0, 1.0):
                     _still(page, scene, at)
                     shown = _box_png(page, scene)
                     _show_robots(page, scene, bodies, False)
@@ -270,14 +270,29 @@ def test_animated_scenes_play_and_every_scene_rotates_when_dragged(
                 wait_for_first_frame(page, scene)
                 if any(c["type"] == "set_animation" for c in drawn):
                     animated += 1
-                    first = _box_png(page, scene)
+                    # It plays on its own: the animator's clock moves (an event, at any speed).
+                    start = page.evaluate(f"() => {_viewer(scene)}.animator.time")
                     page.wait_for_function(
-                        f"() => {_viewer(scene)}.animator.time > 0.5", timeout=120_000
+                        f"() => {_viewer(scene)}.animator.playing"
+                        f" && {_viewer(scene)}.animator.time !== {start}",
+                        timeout=120_000,
                     )
-                    assert (np.abs(_box_png(page, scene) - first).sum(axis=2) > 30).sum() > 50, (
-                        f"{name} {scene}: the animation does not move"
+                    # And what it plays moves the robot: a later frame differs from its first
+                    # (stills, so a slow machine's late first screenshot cannot hide it; a wave
+                    # is back where it started half way, so look at three points).
+                    _still(page, scene, 0.0)
+                    first = _box_png(page, scene)
+                    changed = []
+                    for at in (0.25, 0.5, 0.75):
+                        _still(page, scene, at)
+                        changed.append(
+                            int((np.abs(_box_png(page, scene) - first).sum(axis=2) > 30).sum())
+                        )
+                    assert max(changed) > 50, (
+                        f"{name} {scene}: the animation does not move (pixels changed at"
+                        f" 1/4, 1/2, 3/4 of it: {changed})"
                     )
-                _still(page, scene, "0")
+                _still(page, scene, 0.0)
                 before = _box_png(page, scene)
                 camera = page.evaluate(f"() => {_viewer(scene)}.camera.position.toArray()")
                 box = page.locator(f"#{scene}").bounding_box()
