@@ -290,10 +290,21 @@ def generate_launch_description():
 """
 
 
-def start_launch(env: dict[str, str], *argv: str) -> subprocess.Popen[str]:
+#: Runs ``python -m rosbook.cli ARGV`` with SIGINT ignored, as a shell starts a
+#: background job (``cmd &`` in a script, ``nohup``): the disposition is inherited.
+SIGINT_IGNORED = (
+    "import os, signal, sys; signal.signal(signal.SIGINT, signal.SIG_IGN); "
+    "os.execv(sys.executable, [sys.executable, '-m', 'rosbook.cli', *sys.argv[1:]])"
+)
+
+
+def start_launch(
+    env: dict[str, str], *argv: str, sigint_ignored: bool = False
+) -> subprocess.Popen[str]:
     """``ros2 launch ARGV`` in a terminal of its own (a Ctrl-C goes to its group)."""
+    prefix = ["-c", SIGINT_IGNORED] if sigint_ignored else ["-m", "rosbook.cli"]
     return subprocess.Popen(
-        [sys.executable, "-m", "rosbook.cli", "launch", *argv],
+        [sys.executable, *prefix, "launch", *argv],
         env=env,
         stdout=subprocess.PIPE,
         stderr=subprocess.STDOUT,
@@ -328,7 +339,7 @@ ESCALATED = "still running: sending SIGTERM"
 
 
 def launched_and_stopped(
-    env: dict[str, str], *argv: str, ctrl_c_twice: bool = False
+    env: dict[str, str], *argv: str, ctrl_c_twice: bool = False, sigint_ignored: bool = False
 ) -> tuple[int, str]:
     """``ros2 launch ARGV`` until a message was heard, then Ctrl-C (twice: the second
     while it stops): its exit code and output.
@@ -340,7 +351,7 @@ def launched_and_stopped(
     for the launcher, not what this test is about. That run, and only that, is tried
     once more."""
     for attempt in range(2):
-        proc = start_launch(env, *argv)
+        proc = start_launch(env, *argv, sigint_ignored=sigint_ignored)
         lines = read_until(proc, "I heard", [])
         os.killpg(proc.pid, signal.SIGINT)
         if ctrl_c_twice:
@@ -374,6 +385,17 @@ def test_a_second_ctrl_c_while_stopping_is_ignored_as_in_launch(env: dict[str, s
     assert code == 0, text
     assert text.count("process has finished cleanly") == 2, text
     assert "still running" not in text, text
+
+
+def test_ros2_launch_started_with_ctrl_c_ignored_still_stops_on_it(env: dict[str, str]) -> None:
+    """A grader started as a background job (``nohup python -m autograder grade ... &`` in
+    a script) passed its ignored SIGINT down to the students' ``ros2 launch``: lab 6's
+    solution was a timeout ("still running 80 s after Ctrl-C"). Upstream launch installs
+    its own SIGINT handler whatever it inherited; so does ours."""
+    code, text = launched_and_stopped(env, "robot_talk", "talk.launch.py", sigint_ignored=True)
+    assert "user interrupted with ctrl-c (SIGINT)" in text, text
+    assert code == 0, text
+    assert text.count("process has finished cleanly") == 2, text
 
 
 def test_nodes_stop_when_the_launcher_itself_is_killed(env: dict[str, str]) -> None:

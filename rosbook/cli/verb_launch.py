@@ -106,6 +106,10 @@ def main(args: argparse.Namespace) -> int:
         )
         return 1
     signal.signal(signal.SIGTERM, _interrupt)  # `kill` stops the nodes too, like Ctrl-C
+    # A shell starts a background job (`cmd &` in a script, under `nohup`) with SIGINT
+    # ignored, which Python then leaves ignored: Ctrl-C would be lost. Like upstream
+    # launch, which installs its own SIGINT handler, take it whatever was inherited.
+    signal.signal(signal.SIGINT, signal.default_int_handler)
     return system.start().spin()
 
 
