@@ -13,6 +13,7 @@ import functools
 import json
 import os
 import shutil
+import signal
 import sys
 import time
 import traceback
@@ -349,6 +350,12 @@ def run_job(job: Job) -> Result:
 
 def serve(result_fd: int) -> None:
     """Read jobs from stdin until it closes; answer each on ``result_fd``."""
+    # A grader started as a background job (`cmd &` in a script, `nohup`) has SIGINT
+    # ignored, and so would everything it starts: the checks' Ctrl-C would then reach a
+    # student's node as rclpy's ExternalShutdownException, not KeyboardInterrupt, and a
+    # talker that stops cleanly in a terminal would be judged wrong. What this starts
+    # gets a terminal's Ctrl-C, however the grader was started.
+    signal.signal(signal.SIGINT, signal.default_int_handler)
     with os.fdopen(result_fd, "w", buffering=1) as results:
         for line in sys.stdin:
             if line.strip():

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import os
 import shutil
+import signal
 import subprocess
 import sys
 from pathlib import Path
@@ -210,3 +211,28 @@ def test_self_check_command_passes_on_the_solution_and_prints_only_its_report(
     # kernels run over Unix sockets (autograder/kernels.py): no TCP port race, and no
     # "Kernel is running over TCP without encryption" warning on the student's terminal
     assert done.stderr == "", done.stderr
+
+
+def test_a_grader_started_with_ctrl_c_ignored_judges_ctrl_c_as_a_terminal_would(
+    tmp_path: Path,
+) -> None:
+    """A shell starts a background job (`nohup python -m autograder grade ... &` in a
+    script) with SIGINT ignored, and what it starts inherits that: rclpy then turns the
+    checks' Ctrl-C into ExternalShutdownException, and a talker that stops cleanly on
+    Ctrl-C in a terminal (it catches KeyboardInterrupt) lost its points."""
+    main = replace_in_answer(
+        LAB,
+        "talker_script",
+        "except (KeyboardInterrupt, ExternalShutdownException):",
+        "except KeyboardInterrupt:",
+    )
+    submit(tmp_path / "in", "background", LAB, answered(LAB, **main))
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        rows = grade(tmp_path / "in", tmp_path / "out", assignment_id=LAB, workers=1)
+    finally:
+        signal.signal(signal.SIGINT, previous)
+    got = rows[("background", LAB)]
+    assert (got["status"], got["score"]) == ("ok", "10"), feedback(
+        tmp_path / "out", "background", LAB
+    )[-3000:]
