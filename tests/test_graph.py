@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import re
+import time
 from typing import Any
 
 import pytest
@@ -11,6 +12,7 @@ from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy, qos_profile_sensor_data
 from std_msgs.msg import Int64, String
 
+from rosbook.cli import private_node
 from rosbook.runtime import graph, interfaces
 from rosbook.runtime.session import Session
 from rosbook.viz.graph_svg import GraphEdges, collect, graph_svg, to_svg
@@ -136,6 +138,23 @@ def test_hz_on_wall_time_is_near_a_20_hz_publisher(system: dict[str, Any]) -> No
     rate = graph.hz("/chatter", duration=1.5)
     assert abs(rate.rate - 20.0) / 20.0 < 0.15, rate
     assert rate.window >= 20
+
+
+def test_an_observer_that_started_slowly_waits_longer_for_discovery_to_be_quiet(
+    system: dict[str, Any],
+) -> None:
+    """A machine that starved an observer's start-up delivers the others' endpoints in
+    slow pieces too: the quiet period that proves discovery settled counts the first
+    node's delay from the observer's start, not from the settle call (a cold ``ros2
+    service type`` on a loaded CI machine settled in 0.25 s, one service short)."""
+    with private_node("_slow_observer") as observer:
+        started = time.monotonic() - 3.0  # as if rclpy.init and the node had taken 3 s
+        graph.discovering_since(observer, started)
+        assert graph.wait_for(lambda g: "/talker" in graph.node_names(g), observer, timeout=60)
+        called = time.monotonic()
+        assert graph.settle(observer)
+        waited = time.monotonic() - called
+    assert waited >= called - started, f"settled after {waited:.2f} s of quiet"
 
 
 def test_bad_inputs_raise_one_line_errors(system: dict[str, Any]) -> None:

@@ -184,10 +184,9 @@ class _Watch:
         self.first_seen: float | None = None
         self.settled_once = False
 
-    def settled(
-        self, watcher: Node, *, start: float, called: float, at_least: float, quiet: float
-    ) -> bool:
-        """Whether discovery has settled now (``settle``); ``called``: when the wait began."""
+    def settled(self, watcher: Node, *, start: float, at_least: float, quiet: float) -> bool:
+        """Whether discovery has settled now (``settle``); ``start``: when the observer
+        began discovering."""
         t = time.monotonic()
         shot = snapshot(watcher)
         if shot != self.last:
@@ -197,8 +196,8 @@ class _Watch:
         if not visible and not self.settled_once:
             done = t - start >= max(FIRST_NODE_WAIT_S, at_least) and quiet_for >= quiet
         else:
-            if self.first_seen is None:  # how long the others took to answer, start-up aside
-                self.first_seen = 0.0 if self.settled_once else t - called  # (not a newcomer)
+            if self.first_seen is None:  # how long the others took to answer us
+                self.first_seen = 0.0 if self.settled_once else t - start  # (not a newcomer)
             needed = max(quiet, self.first_seen)
             done = t - start >= at_least and quiet_for >= needed and _complete(self.last)
         self.settled_once |= done
@@ -218,9 +217,7 @@ def keep_watching(node: Node) -> Callable[[], bool]:
     called = time.monotonic()
     start = _SINCE.get(node, called)
     watch = _WATCHES.setdefault(node, _Watch(snapshot(node), called))
-    return lambda: watch.settled(
-        node, start=start, called=called, at_least=ANNOUNCE_PERIOD_S, quiet=QUIET_S
-    )
+    return lambda: watch.settled(node, start=start, at_least=ANNOUNCE_PERIOD_S, quiet=QUIET_S)
 
 
 def settle(
@@ -237,8 +234,10 @@ def settle(
     endpoint's node known. Discovery is not instantaneous: a participant first learns
     that another exists, then its endpoints, and the names of its nodes separately (an
     endpoint's node is ``_NODE_NAME_UNKNOWN_`` until then). A busy machine answers late,
-    so the quiet period grows with how long the first node took to show up: the graph
-    settles fast where answers come fast and waits longer where they come late.
+    so the quiet period grows with how long the first node took to show up, counted
+    from the observer's start (its own start-up too: a machine that starved it will
+    deliver the others' endpoints in slow pieces as well): the graph settles fast where
+    answers come fast and waits longer where they come late.
     While no visible node is known, "nothing new" proves little (the first
     announcements may still be under way), so an empty graph is only trusted after
     ``FIRST_NODE_WAIT_S``. ``at_least`` and that wait count from ``discovering_since``
@@ -254,7 +253,7 @@ def settle(
     def settled() -> bool:
         if until is not None and until():
             return True
-        return watch.settled(watcher, start=start, called=called, at_least=at_least, quiet=quiet)
+        return watch.settled(watcher, start=start, at_least=at_least, quiet=quiet)
 
     return _spin_until(watcher, settled, timeout)
 
