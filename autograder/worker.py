@@ -237,7 +237,6 @@ def grade(job: Job) -> Result:
     # A judged test cell's run in the kernel is only a hint for the student: when it is
     # slow, the judge's verdict still stands, and the machine's speed decides nothing.
     slow = [c for c in timed_out_cells(autograded) if c not in run.checks]
-    slow = list(dict.fromkeys(slow + judged.timed_out))
 
     started = time.monotonic()
     feedback = grader.generate_feedback(job.assignment_id, job.student_id, force=True)
@@ -261,16 +260,8 @@ def grade(job: Job) -> Result:
             "your instructor sees this submission marked 'tampered'."
         )
         add_notice(page, "Locked cells changed", message, status)
-    elif slow:
-        status = "timeout"
-        message = (
-            f"These cells ran longer than {job.cell_timeout} s and were interrupted: "
-            + ", ".join(slow)
-            + ". Look for a loop that never ends or a spin without a timeout."
-        )
-        add_notice(page, "Cells interrupted", message, status)
     else:
-        status, message = "ok", ""
+        status, message = timeout_status(page, slow, judged, job.cell_timeout)
     status, message = judged_status(page, judged, status, message)
     if meddling:  # tampering too, though no locked cell changed: for a person to judge
         status = "tampered"
@@ -295,6 +286,33 @@ def grade(job: Job) -> Result:
     destination.parent.mkdir(parents=True, exist_ok=True)
     shutil.copy(page, destination)
     return Result(score, max_score, status, message)
+
+
+def timeout_status(
+    page: Path, slow: list[str], judged: Judged, cell_timeout: int
+) -> tuple[str, str]:
+    """'timeout' and what ran out of time, or 'ok': cells the kernel interrupted at the
+    cell limit, and cells whose check by the judge hit its guard (with what the judge
+    waited for), each said as what it is."""
+    said = []
+    if slow:
+        said.append(
+            f"These cells ran longer than {cell_timeout} s and were interrupted: "
+            + ", ".join(slow)
+            + ". Look for a loop that never ends or a spin without a timeout."
+        )
+        add_notice(page, "Cells interrupted", said[-1], "timeout")
+    if judged.timed_out:
+        said.append(
+            "The grader's own check of these cells ran out of time before it could decide, "
+            "so they score nothing until your instructor regrades: "
+            + "; ".join(f"{gid} ({judged.messages[gid]})" for gid in judged.timed_out)
+            + ". A timeout is not a verdict that your code is wrong: look for a callback "
+            "that blocks or a node that stops answering; your instructor sees this "
+            "submission marked 'timeout'."
+        )
+        add_notice(page, "Checks that ran out of time", said[-1], "timeout")
+    return ("timeout", " ".join(said)) if said else ("ok", "")
 
 
 def judged_status(page: Path, judged: Judged, status: str, message: str) -> tuple[str, str]:
