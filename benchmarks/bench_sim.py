@@ -28,6 +28,8 @@ from pathlib import Path
 from geometry_msgs.msg import Twist
 from nav_msgs.msg import Odometry
 from rclpy.node import Node
+from rclpy.serialization import deserialize_message, serialize_message
+from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import LaserScan
 
 from benchmarks import Figure
@@ -102,9 +104,6 @@ def tick_messages_cpu() -> float:
     ``odom`` and ``/clock``, and the simulator's ``cmd_vel`` (``deserialize_message``:
     what every take costs, the transport aside). No loop with a Python controller can
     spend less per tick, whatever the simulator does."""
-    from rclpy.serialization import deserialize_message, serialize_message
-    from rosgraph_msgs.msg import Clock
-
     messages = [(serialize_message(t()), t) for t in (Odometry, Clock, Twist)]
     rounds = 2_000
     started = time.process_time()
