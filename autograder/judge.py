@@ -35,6 +35,7 @@ from pathlib import Path
 from typing import Any
 
 from jupyter_client.blocking import BlockingKernelClient
+from rclpy.event_handler import PublisherEventCallbacks
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.qos import QoSProfile
@@ -140,6 +141,7 @@ class _RosbookJudgeAgent:
         import time
         import rclpy
         from rclpy.action.server import ServerGoalHandle
+        from rclpy.executors import ShutdownException, TimeoutException
         from rclpy.publisher import Publisher
         from std_msgs.msg import String
         acker = rclpy.create_node("rosbook_judge_agent")
@@ -161,10 +163,33 @@ class _RosbookJudgeAgent:
         sending = [topic for topic, _ in self.node.get_publisher_names_and_types_by_node(name, ns)
                    if topic not in ("/rosout", "/parameter_events")]
 
-        def readers():
-            return {topic: [bytes(e.endpoint_gid).hex()
+        # Listing the readers is a graph query: listed afresh when the node's publishers'
+        # match counts change, and on each repeated ack (while the judge waits to be known).
+        matching = [p for p in self.node.publishers if p.topic_name in sending]
+        listed = {"counts": None, "readers": {}}
+
+        def readers(fresh):
+            counts_now = [p.get_subscription_count() for p in matching]
+            if fresh or counts_now != listed["counts"]:
+                listed["counts"] = counts_now
+                listed["readers"] = {
+                    topic: [bytes(e.endpoint_gid).hex()
                             for e in acker.get_subscriptions_info_by_topic(topic)]
                     for topic in sending}
+            return listed["readers"]
+
+        def run_ready(timeout):
+            """Run one callback that is ready, waiting up to ``timeout`` for one; whether
+            one ran (``spin_once`` does not say, so due callbacks were run a fixed number
+            of times, each a wait of its own)."""
+            try:
+                handler, _, _ = self.executor.wait_for_ready_callbacks(timeout)
+            except (TimeoutException, ShutdownException):
+                return False
+            handler()
+            if handler.exception() is not None:
+                raise handler.exception()
+            return True
 
         taken = {}
         callbacks = []
@@ -193,8 +218,9 @@ class _RosbookJudgeAgent:
             while True:
                 now = self.node.get_clock().now().nanoseconds
                 if now > last:
-                    for _ in range(8):
-                        self.executor.spin_once(timeout_sec=0.0)
+                    for _ in range(64):  # every due callback (a bound against a loop)
+                        if not run_ready(0.0):
+                            break
                     last, sent = now, 0.0
                     deadline = time.monotonic() + guard
                 if sum(taken.values()) != said:
@@ -202,7 +228,7 @@ class _RosbookJudgeAgent:
                 if time.monotonic() - sent > 0.1:  # again, while the judge waits for it
                     msg.data = json.dumps({
                         "now": last, "published": counts, "feedback_at": feedback_at,
-                        "taken": taken, "readers": readers(),
+                        "taken": taken, "readers": readers(fresh=sent > 0.0),
                     })
                     ack.publish(msg)
                     sent = time.monotonic()
@@ -212,7 +238,7 @@ class _RosbookJudgeAgent:
                 if time.monotonic() > deadline:
                     self._answer({"timeout": True})
                     return
-                self.executor.spin_once(timeout_sec=0.01)
+                run_ready(0.01)
         finally:
             Publisher.publish = original
             ServerGoalHandle.publish_feedback = original_feedback
@@ -496,12 +522,15 @@ def drain(node: Node, rounds: int = 20) -> None:
 
 
 def ros_node(name: str) -> Node:
-    """A node of the judge's own (destroyed with ``ros.remove``)."""
-    return Node(name)
+    """A node of the judge's own (destroyed with ``ros.remove``). Nobody asks the judge's
+    nodes for their parameters: without the parameter services their wait set is small
+    (the lockstep checks wait on them several times per simulated tick)."""
+    return Node(name, start_parameter_services=False)
 
 
 def clock_publisher(node: Node) -> Any:
-    return node.create_publisher(Clock, "/clock", QoSProfile(depth=10))
+    quiet = PublisherEventCallbacks(use_default_callbacks=False)
+    return node.create_publisher(Clock, "/clock", QoSProfile(depth=10), event_callbacks=quiet)
 
 
 def clock_message(t: float) -> Clock:

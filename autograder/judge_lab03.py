@@ -20,6 +20,7 @@ from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from typing import Any
 
+from rclpy.event_handler import SubscriptionEventCallbacks
 from rclpy.node import Node
 from std_msgs.msg import Int64, String
 from std_srvs.srv import Trigger
@@ -121,7 +122,11 @@ class RemoteClock:
         self.clock = clock_publisher(self.node)
         self.acked: list[dict[str, Any]] = [_ack("")]
         self.acks = self.node.create_subscription(
-            String, "/rosbook_judge/clock_ack", lambda m: self.acked.append(_ack(m.data)), 10
+            String,
+            "/rosbook_judge/clock_ack",
+            lambda m: self.acked.append(_ack(m.data)),
+            10,
+            event_callbacks=SubscriptionEventCallbacks(use_default_callbacks=False),
         )
         self.arrived: Callable[[dict[str, int]], bool] = lambda published: True
         self.t = 0.0

@@ -112,6 +112,46 @@ def test_a_kernel_says_which_subscriptions_its_node_can_send_to(session: Session
         assert done == [{"timeout": False}]
 
 
+def test_a_kernel_acks_a_time_once_every_callback_due_then_has_run(session: Session) -> None:
+    """The judge stamps what the kernel's node sent with the time it acked: every
+    callback due at that time must have run before the ack, however many fall due
+    together (the agent ran a fixed 8, so a ninth timer's message was stamped late)."""
+    from std_msgs.msg import String
+
+    from autograder.judge_lab01 import _ack
+
+    timers = (
+        "from rclpy.node import Node\n"
+        "from std_msgs.msg import Int64\n"
+        "class Many(Node):\n"
+        "    def __init__(self):\n"
+        "        super().__init__('many')\n"
+        "        self.pub = self.create_publisher(Int64, 'counter', 10)\n"
+        "        self.ticks = [self.create_timer(0.1, self.tick) for _ in range(12)]\n"
+        "    def tick(self):\n"
+        "        self.pub.publish(Int64(data=1))\n"
+    )
+    with judged_kernel(timers) as kernel:
+        assert kernel.call("start", "Many", {}, True)["name"] == "many"
+        node = judge.ros_node("judge_acks")
+        acked = [_ack("")]
+        node.create_subscription(
+            String, "/rosbook_judge/clock_ack", lambda m: acked.append(_ack(m.data)), 10
+        )
+        following = kernel.send("follow_clock", 0.1, 60.0)
+        assert session.spin_until(lambda: acked[-1]["now"] >= 0, node, timeout=60)
+        clock = judge.clock_publisher(node)
+        done: list = []
+        waiter = threading.Thread(target=lambda: done.append(kernel.answer(following, 60)))
+        waiter.start()
+        while waiter.is_alive():
+            clock.publish(judge.clock_message(0.1))
+            session.spin_until(lambda: acked[-1]["now"] >= 100_000_000, node, timeout=0.2)
+        assert done == [{"timeout": False}]
+        first = next(ack for ack in acked if ack["now"] >= 100_000_000)
+        assert first["published"].get("/counter") == 12, first
+
+
 @contextmanager
 def judged_kernel(code: str) -> Iterator[judge.Kernel]:
     """A kernel that ran ``code`` (a student's cells), as the judge reaches it."""
