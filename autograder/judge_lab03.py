@@ -47,6 +47,7 @@ from autograder.judge_lab01 import (
 from rosbook.labs import lab03 as service_checks
 from rosbook.labs.probes import Probe, assert_sequence
 from rosbook.runtime.actions import GoalRun
+from rosbook.runtime.callbacks import Callbacks, WakingExecutor
 from rosbook.runtime.services import BackgroundServer, ServiceCallError, call
 from rosbook.runtime.session import ros
 
@@ -128,6 +129,8 @@ class RemoteClock:
             10,
             event_callbacks=SubscriptionEventCallbacks(use_default_callbacks=False),
         )
+        # the lockstep's waits on this node alone: rcl's wait on a kept wait set
+        self.callbacks = Callbacks([self.node], WakingExecutor())
         self.arrived: Callable[[dict[str, int]], bool] = lambda published: True
         self.t = 0.0
         # the student's node's own subscription (the judge's nodes on sim time have theirs)
@@ -161,21 +164,34 @@ class RemoteClock:
             self.t = min(self.t + step, end)
             self._hold(self.t, nodes)
 
+    def wait_for(self, condition: Callable[[], bool], *, what: str, guard: float) -> None:
+        """Spin the clock's node until ``condition()`` (raises ``JudgeTimeout`` after
+        ``guard`` s, saying ``what`` did not happen)."""
+        if not self.callbacks.spin_until(condition, guard):
+            raise JudgeTimeout(f"{what} after {guard:.0f} s")
+
+    def _spin_until(
+        self, condition: Callable[[], bool], nodes: tuple[Node, ...], timeout: float
+    ) -> bool:
+        """Spin the judge's ``nodes`` (all of them if none) and the clock's node until
+        ``condition()``; whether it came true within ``timeout`` s."""
+        if nodes == (self.node,):
+            return self.callbacks.spin_until(condition, timeout)
+        watched = (*nodes, self.node) if nodes else ()
+        return ros.spin_until(condition, *watched, timeout=timeout)
+
     def _hold(self, t: float, nodes: tuple[Node, ...]) -> None:
         target = int(round(t * 1e9))
-        watched = (*nodes, self.node) if nodes else ()
         deadline = time.monotonic() + LOCKSTEP_GUARD_S
         # a /clock message to a best-effort subscription can be lost: sent again until acked
         while True:
             self.clock.publish(clock_message(t))
-            if ros.spin_until(
-                lambda: self.acked[-1]["now"] >= target, *watched, timeout=CLOCK_RETRY_S
-            ):
+            if self._spin_until(lambda: self.acked[-1]["now"] >= target, nodes, CLOCK_RETRY_S):
                 break
             if time.monotonic() > deadline:
                 raise JudgeTimeout(f"node '{self.name}' did not follow /clock to t = {t:g} s")
         published = self.acked[-1]["published"]
-        if not ros.spin_until(lambda: self.arrived(published), *watched, timeout=LOCKSTEP_GUARD_S):
+        if not self._spin_until(lambda: self.arrived(published), nodes, LOCKSTEP_GUARD_S):
             raise JudgeTimeout(
                 f"what node '{self.name}' sent at t = {t:g} s ({published}) did not arrive"
             )
@@ -199,6 +215,7 @@ class RemoteClock:
         finally:
             stopper.set()
             thread.join()
+            self.callbacks.executor.shutdown(timeout_sec=0)
             ros.remove(self.node)
         if answered[0]["timeout"]:
             raise JudgeTimeout(f"node '{self.name}' stopped following /clock")

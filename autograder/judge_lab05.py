@@ -144,9 +144,8 @@ def drive(
                 if advance:
                     sim.node.advance(TICK_S)
                 sim.node.publish_sensors(force=not advance)
-                wait_for(
+                clock.wait_for(
                     odom_taken,
-                    clock.node,
                     what=f"node '{name}' did not take odom at t = {sim.now:g} s",
                     guard=LOCKSTEP_GUARD_S,
                 )

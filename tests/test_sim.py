@@ -14,6 +14,7 @@ from rclpy.node import Node
 from sensor_msgs.msg import LaserScan
 from std_srvs.srv import Trigger
 
+from rosbook.runtime.callbacks import WakingExecutor
 from rosbook.runtime.session import ros
 from rosbook.sim.diff_drive import arc_step, wrap_angle
 from rosbook.sim.node import Simulation, yaw_of
@@ -295,17 +296,26 @@ def test_services_and_clients_answer_within_the_lockstep_tick(awaiting: bool) ->
 @pytest.mark.usefixtures("reset_session")
 def test_a_tick_needs_no_wait_of_rclpys_executor(monkeypatch: pytest.MonkeyPatch) -> None:
     """The controller's timer and messages are served without rclpy's per-callback waits."""
+    import rosbook.runtime.callbacks as callbacks
     import rosbook.sim.node as sim_node
 
     rounds = []
-    full_round = sim_node._round
-    monkeypatch.setattr(sim_node, "_round", lambda ex: rounds.append(1) or full_round(ex))
+    full_round = callbacks.run_round
+    counted = lambda ex: rounds.append(1) or full_round(ex)  # noqa: E731
+    monkeypatch.setattr(callbacks, "run_round", counted)
+    monkeypatch.setattr(sim_node, "run_round", counted)
+    waits = []
+    spin_once = WakingExecutor.spin_once
+    monkeypatch.setattr(
+        WakingExecutor, "spin_once", lambda ex, *a, **k: waits.append(1) or spin_once(ex, *a, **k)
+    )
     sim = Simulation(World(arena=None))
     driver = ConstantDriver(0.3, 0.6)
     sim.run(2.0)
     assert len(driver.ticks) == 100 and sim.node.commands == 100
     # the first round (the executor's own start) and one every EVENTS_EVERY_TICKS ticks
     assert len(rounds) <= 1 + 100 // sim_node.EVENTS_EVERY_TICKS
+    assert waits == []  # waiting for /clock to arrive: rcl's wait on a kept wait set
 
 
 def test_a_start_pose_inside_a_wall_is_refused() -> None:

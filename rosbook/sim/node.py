@@ -24,40 +24,28 @@ On a full ROS 2 install the same roles are played by Gazebo with ``ros_gz_bridge
 from __future__ import annotations
 
 import array
-import inspect
 import math
 import time
 from collections.abc import Callable
-from typing import Any, NamedTuple
 
 import numpy as np
 import rclpy
 from geometry_msgs.msg import Twist
 from nav_msgs.msg import Odometry
-from rclpy.client import Client
 from rclpy.clock import Clock as RclpyClock
 from rclpy.clock import ClockType
 from rclpy.event_handler import (
-    EventHandler,
     PublisherEventCallbacks,
     SubscriptionEventCallbacks,
 )
-from rclpy.exceptions import InvalidHandle
-from rclpy.executors import ExternalShutdownException, TimeoutException
-from rclpy.guard_condition import GuardCondition
-from rclpy.impl.implementation_singleton import rclpy_implementation as _rclpy
+from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 from rclpy.qos import QoSProfile
-from rclpy.service import Service
-from rclpy.subscription import Subscription
-from rclpy.task import Task
-from rclpy.timer import Timer
-from rclpy.waitable import Waitable
 from sensor_msgs.msg import LaserScan
 
+from rosbook.runtime.callbacks import Callbacks, WakingExecutor, run_round, timer_due
 from rosbook.runtime.clock import CATCH_UP_TIMEOUT_S, LockstepClock, stamp, to_ns
-from rosbook.runtime.executors import SingleThreadedExecutor
 from rosbook.runtime.session import Session, notebook_session
 from rosbook.sim.physics import DiffDriveSim, LaserSpec, RobotGeometry, Trajectory, World
 
@@ -186,248 +174,6 @@ class DiffDriveSimNode(Node):
         return msg
 
 
-def _round(executor: SingleThreadedExecutor) -> bool:
-    """Run the callbacks of one wait (everything ready now); whether any ran.
-
-    Re-raises what a callback raised.
-    """
-    ran = False
-    while True:
-        try:
-            handler, _, _ = executor.wait_for_ready_callbacks(timeout_sec=0.0)
-        except TimeoutException:
-            # rclpy ends every zero-timeout wait with this, after yielding its work.
-            return ran
-        ran = True
-        handler()
-        if handler.exception() is not None:
-            raise handler.exception()  # type: ignore[misc]
-
-
-class _Executor(SingleThreadedExecutor):
-    """rclpy's single-threaded executor that notes when it has work of its own.
-
-    A task to run (a future's done callback, a coroutine to resume) or a changed node
-    wakes it; ``woken`` says so until the next full round.
-    """
-
-    def __init__(self) -> None:
-        super().__init__()
-        self.woken = True
-
-    def create_task(self, callback: Callable[..., Any], *args: Any, **kwargs: Any) -> Task:
-        self.woken = True
-        return super().create_task(callback, *args, **kwargs)
-
-    def wake(self) -> None:
-        self.woken = True
-        super().wake()
-
-
-class _Plan(NamedTuple):
-    timers: list[Timer]
-    subs: list[Subscription]
-    services: list[Service]
-    others: list[Any]
-
-
-class _Callbacks:
-    """Runs the ready callbacks of the session's nodes in this thread, at a lockstep's cost.
-
-    A tick's work is a few messages (``/clock``, the sensors, ``cmd_vel``) and the
-    controllers' timers. rclpy's executor builds a wait set, a task and a coroutine for
-    every callback, and most of a tick went there. Here a pass does for timers,
-    subscriptions and services what rclpy's executor does once they are ready (call
-    the timer, or take the message or request; then the callback, and the response),
-    in its order (due timers, then one message or request per entity, node by node);
-    a take that finds nothing costs a microsecond, a wait a hundred. Passes follow until
-    one finds nothing to do. The rest is rclpy's: one wait set (built again only when the
-    entities change) tells whether a client, a guard condition, a waitable (an action,
-    say) or a coroutine callback is ready, and then ``executor`` runs a full round; so
-    it does when it has tasks of its own (a future's callbacks). QoS event handlers only
-    report endpoints discovered meanwhile: ``Simulation`` gives them a full round every
-    ``EVENTS_EVERY_TICKS`` ticks.
-    """
-
-    def __init__(self, nodes: list[Node], executor: _Executor) -> None:
-        self.nodes = nodes
-        self.executor = executor
-        self._plan: _Plan | None = None
-        self._wait_set: Any = None
-
-    def round(self) -> bool:
-        """Run every callback that is ready, and those they make ready; whether any ran."""
-        ran = False
-        full_round = False  # one since the last progress of the passes or requests
-        while True:
-            if self.executor.woken:  # a node changed, or the executor has tasks
-                self._plan = None
-            while self._pass():
-                ran, full_round = True, False
-            if self._serve_requests():
-                ran, full_round = True, False
-                continue
-            if self.executor.woken:  # new tasks (a future's callbacks): run them
-                pass
-            elif full_round or not self._others_ready():
-                # After a full round without progress, what is still ready waits for
-                # the next round (a task that awaits what never comes, say a deadlock
-                # in its callback group, leaves the executor ready for ever).
-                return ran
-            self.executor.woken = False
-            self._plan = None  # the executor's tasks may hold entities until they finish
-            ran = _round(self.executor) or ran
-            full_round = True
-
-    def spin(self, timeout: float) -> None:
-        """Run what is ready; if nothing was, wait up to ``timeout`` s for one callback."""
-        if not self.round():
-            self.executor.spin_once(timeout_sec=timeout)
-
-    def _make_plan(self) -> _Plan:
-        """What this serves (timers, subscriptions, services), what it leaves to rclpy."""
-        timers: list[Timer] = []
-        subs: list[Subscription] = []
-        services: list[Service] = []
-        others: list[Any] = []
-        for node in self.nodes:
-            for timer in node.timers:
-                (timers if self._served_here(timer) else others).append(timer)
-            for sub in node.subscriptions:
-                (subs if self._served_here(sub) else others).append(sub)
-            for service in node.services:
-                (services if self._served_here(service) else others).append(service)
-            others += node.clients
-            others += node.guards
-            others += (w for w in node.waitables if not isinstance(w, EventHandler))
-        self._wait_set = None
-        return _Plan(timers, subs, services, others)
-
-    def _pass(self) -> bool:
-        """Call the timers due now, then take one message per subscription; whether any."""
-        if self._plan is None:
-            self._plan = self._make_plan()
-        due = [timer for timer in self._plan.timers if timer.handle.is_timer_ready()]
-        for timer in due:
-            self._call_timer(timer)
-        taken = False
-        for sub in self._plan.subs:
-            taken = self._take(sub) or taken
-        return bool(due) or taken
-
-    def _serve_requests(self) -> bool:
-        """Serve one request per service (once the lockstep work is done); whether any."""
-        if self._plan is None:
-            self._plan = self._make_plan()
-        served = False
-        for service in self._plan.services:
-            served = self._serve(service) or served
-        return served
-
-    def _others_ready(self) -> bool:
-        """Whether something the passes do not serve is ready (one wait of rcl)."""
-        if self._plan is None:
-            self._plan = self._make_plan()
-        others = self._plan.others
-        if not others:
-            return False
-        kinds = {kind: [e for e in others if isinstance(e, kind)] for kind in _KINDS}
-        waitables = kinds[Waitable]
-        if self._wait_set is None:
-            self._wait_set = _rclpy.WaitSet(
-                len(kinds[Subscription]), len(kinds[GuardCondition]), len(kinds[Timer]),
-                len(kinds[Client]), len(kinds[Service]),
-                sum(w.get_num_entities().num_events for w in waitables),
-                self.executor.context.handle,
-            )  # fmt: skip
-        wait_set = self._wait_set
-        wait_set.clear_entities()
-        for kind, add in _KINDS.items():
-            for entity in kinds[kind]:
-                add(wait_set, entity)
-        wait_set.wait(0)
-        return bool(
-            any(
-                wait_set.get_ready_entities(name)
-                for name in ("subscription", "guard_condition", "timer", "client", "service")
-            )
-            or any(w.is_ready(wait_set) for w in waitables)
-        )
-
-    @staticmethod
-    def _served_here(entity: Timer | Subscription | Service) -> bool:
-        return not (
-            entity._executor_event  # an executor task holds it
-            or inspect.iscoroutinefunction(entity.callback)
-            or not entity.callback_group.can_execute(entity)
-        )
-
-    def _call_timer(self, timer: Timer) -> None:
-        try:
-            with timer.handle:
-                if not timer.handle.is_timer_ready():  # cancelled or reset by a callback
-                    return
-                timer.handle.call_timer()
-        except InvalidHandle:  # destroyed by a callback
-            return
-        self._run(timer, ())
-
-    def _take(self, sub: Subscription) -> bool:
-        try:
-            with sub.handle:
-                got = sub.handle.take_message(sub.msg_type, sub.raw)
-        except InvalidHandle:  # destroyed by a callback
-            return False
-        if got is None:
-            return False
-        with_info = sub._callback_type is Subscription.CallbackType.WithMessageInfo
-        self._run(sub, got if with_info else (got[0],))
-        return True
-
-    def _serve(self, service: Service) -> bool:
-        try:
-            with service.handle:
-                request, header = service.handle.service_take_request(service.srv_type.Request)
-        except InvalidHandle:
-            return False
-        if header is None:
-            return False
-        response = self._run(service, (request, service.srv_type.Response()))
-        service.send_response(response, header)
-        return True
-
-    @staticmethod
-    def _run(entity: Timer | Subscription | Service, args: tuple[Any, ...]) -> Any:
-        group = entity.callback_group
-        if not group.beginning_execution(entity):
-            raise RuntimeError(f"callback group refused {entity!r} in a single thread")
-        try:
-            return entity.callback(*args)
-        finally:
-            group.ending_execution(entity)
-
-
-#: How to add each kind of entity to an rcl wait set.
-_KINDS: dict[type, Callable[[Any, Any], Any]] = {
-    Subscription: lambda ws, e: ws.add_subscription(e.handle),
-    GuardCondition: lambda ws, e: ws.add_guard_condition(e.handle),
-    Timer: lambda ws, e: ws.add_timer(e.handle),
-    Client: lambda ws, e: ws.add_client(e.handle),
-    Service: lambda ws, e: ws.add_service(e.handle),
-    Waitable: lambda ws, e: e.add_to_wait_set(ws),
-}
-
-
-def _timer_due(nodes: list[Node]) -> bool:
-    """Whether a timer of ``nodes`` is due now (its callback has not run yet)."""
-    for node in nodes:
-        for timer in node.timers:
-            left = timer.time_until_next_call()
-            if left is not None and left <= 0 and not timer.is_canceled():
-                return True
-    return False
-
-
 def yaw_of(msg: Odometry) -> float:
     """The heading in an ``Odometry`` message (rotation about z)."""
     q = msg.pose.pose.orientation
@@ -506,10 +252,10 @@ class Simulation:
         # it takes its cmd_vel after the others have had their turn, as Gazebo would in
         # a process of its own, and the executor's wait set stays small.
         nodes = [n for n in self.session.nodes if n not in self._own]
-        executor = _Executor()
+        executor = WakingExecutor()
         for node in nodes:
             executor.add_node(node)
-        callbacks = _Callbacks(nodes, executor)
+        callbacks = Callbacks(nodes, executor)
 
         try:
             if not self._started:
@@ -532,7 +278,7 @@ class Simulation:
             executor.shutdown(timeout_sec=0)
             self.wall_time += time.perf_counter() - started
 
-    def _tick(self, callbacks: _Callbacks, catch_up_timeout: float, advance: bool = True) -> None:
+    def _tick(self, callbacks: Callbacks, catch_up_timeout: float, advance: bool = True) -> None:
         """Physics for one tick, sensors and /clock out, everyone's callbacks, cmd_vel in.
 
         The first pass takes ``/clock`` (and the sensors); once every node reads the new
@@ -553,11 +299,11 @@ class Simulation:
         )
         if not spun:  # every node read this time already: run what is ready all the same
             callbacks.round()
-        while _timer_due(callbacks.nodes) and callbacks.round():
+        while timer_due(callbacks.nodes) and callbacks.round():
             pass
         self._ticks += 1
         if self._ticks % EVENTS_EVERY_TICKS == 0:  # QoS events: a full wait of rclpy's
-            _round(callbacks.executor)
+            run_round(callbacks.executor)
         self.node.take_commands()
 
     @property
