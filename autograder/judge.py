@@ -106,9 +106,9 @@ class _RosbookJudgeAgent:
         self.reply = json.dumps(value)
 
     def start(self, factory, kwargs, sim_time, parameters=None):
-        from rclpy.executors import SingleThreadedExecutor
         from rclpy.parameter import Parameter
         from rosbook import ros
+        from rosbook.runtime.callbacks import WakingExecutor
         self.stop()
         ros.init(sim_time=sim_time)
         ros.reset()
@@ -116,7 +116,7 @@ class _RosbookJudgeAgent:
             kwargs = dict(kwargs, parameter_overrides=[
                 Parameter(name, value=value) for name, value in parameters.items()])
         self.node = get_ipython().user_ns[factory](**kwargs)
-        self.executor = SingleThreadedExecutor()
+        self.executor = WakingExecutor()
         self.executor.add_node(self.node)
         name, ns = self.node.get_name(), self.node.get_namespace()
         self._answer({
@@ -141,9 +141,9 @@ class _RosbookJudgeAgent:
         import time
         import rclpy
         from rclpy.action.server import ServerGoalHandle
-        from rclpy.executors import ShutdownException, TimeoutException
         from rclpy.publisher import Publisher
         from std_msgs.msg import String
+        from rosbook.runtime.callbacks import Callbacks
         acker = rclpy.create_node("rosbook_judge_agent")
         ack = acker.create_publisher(String, "/rosbook_judge/clock_ack", 10)
         counts = {}
@@ -178,19 +178,6 @@ class _RosbookJudgeAgent:
                     for topic in sending}
             return listed["readers"]
 
-        def run_ready(timeout):
-            """Run one callback that is ready, waiting up to ``timeout`` for one; whether
-            one ran (``spin_once`` does not say, so due callbacks were run a fixed number
-            of times, each a wait of its own)."""
-            try:
-                handler, _, _ = self.executor.wait_for_ready_callbacks(timeout)
-            except (TimeoutException, ShutdownException):
-                return False
-            handler()
-            if handler.exception() is not None:
-                raise handler.exception()
-            return True
-
         taken = {}
         callbacks = []
         for sub in self.node.subscriptions:
@@ -204,6 +191,9 @@ class _RosbookJudgeAgent:
 
                 sub.callback = taking
         said = -1
+        # the node's callbacks as a lockstep runs them: passes, then rcl's wait on a kept
+        # wait set (rclpy's executor builds one per callback and wakes once more after it)
+        runner = Callbacks([self.node], self.executor)
         Publisher.publish = counted
         original_feedback = ServerGoalHandle.publish_feedback
         ServerGoalHandle.publish_feedback = counted_feedback
@@ -218,9 +208,7 @@ class _RosbookJudgeAgent:
             while True:
                 now = self.node.get_clock().now().nanoseconds
                 if now > last:
-                    for _ in range(64):  # every due callback (a bound against a loop)
-                        if not run_ready(0.0):
-                            break
+                    runner.round()  # every callback due now, and what they make ready
                     last, sent = now, 0.0
                     deadline = time.monotonic() + guard
                 if sum(taken.values()) != said:
@@ -238,7 +226,7 @@ class _RosbookJudgeAgent:
                 if time.monotonic() > deadline:
                     self._answer({"timeout": True})
                     return
-                run_ready(0.01)
+                runner.spin(0.01)
         finally:
             Publisher.publish = original
             ServerGoalHandle.publish_feedback = original_feedback

@@ -72,6 +72,14 @@ class WakingExecutor(SingleThreadedExecutor):
         super().wake()
 
     @property
+    def pending(self) -> bool:
+        """Whether a task is not done yet: a coroutine (an action's execute callback, say)
+        awaiting a future. rclpy's executor resumes such tasks at every wait; nothing
+        wakes it when their future completes."""
+        with self._tasks_lock:
+            return any(not task.done() for task, _, _ in self._tasks)
+
+    @property
     def guard(self) -> GuardCondition:
         """rclpy's guard condition of this executor, triggered when it has work of its own
         (a task, a node added or removed, a callback it ran is done)."""
@@ -122,6 +130,8 @@ class Callbacks:
                 ran, full_round = True, False
                 continue
             if self.executor.woken:  # new tasks (a future's callbacks): run them
+                pass
+            elif self.executor.pending and not full_round:  # resume them, once a round
                 pass
             elif full_round or not self._others_ready():
                 # After a full round without progress, what is still ready waits for
