@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterator
+from typing import Any
 
 import numpy as np
 import pytest
@@ -316,6 +317,32 @@ def test_a_tick_needs_no_wait_of_rclpys_executor(monkeypatch: pytest.MonkeyPatch
     # the first round (the executor's own start) and one every EVENTS_EVERY_TICKS ticks
     assert len(rounds) <= 1 + 100 // sim_node.EVENTS_EVERY_TICKS
     assert waits == []  # waiting for /clock to arrive: rcl's wait on a kept wait set
+
+
+@pytest.mark.usefixtures("reset_session")
+def test_a_controller_that_destroys_a_timer_in_a_callback_drives_on() -> None:
+    """A one-shot start: the odom callback destroys the node's own timer. The lockstep
+    runner knew its timers from before and asked rcl whether the destroyed one was due
+    ("failed to check timer ready: timer argument is null"): the run ended there."""
+
+    class StartsOnce(Node):
+        def __init__(self) -> None:
+            super().__init__("starts_once")
+            self.pub = self.create_publisher(Twist, "cmd_vel", 10)
+            self.create_subscription(Odometry, "odom", self.on_odom, 10)
+            self.start: Any = self.create_timer(0.5, lambda: None)
+            self.create_timer(0.02, lambda: self.pub.publish(Twist()))
+            self.odom = 0
+
+        def on_odom(self, msg: Odometry) -> None:
+            self.odom += 1
+            if self.odom == 10:
+                self.destroy_timer(self.start)
+
+    sim = Simulation(World(arena=None))
+    node = StartsOnce()
+    sim.run(2.0)
+    assert node.odom == 101 and sim.node.commands == 100
 
 
 def test_a_start_pose_inside_a_wall_is_refused() -> None:

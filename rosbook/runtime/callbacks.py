@@ -189,9 +189,9 @@ class Callbacks:
 
     def _pass(self) -> bool:
         """Call the timers due now, then take one message per subscription; whether any."""
-        if self._plan is None:
+        if self._plan is None or self.executor.woken:  # an entity was made or destroyed
             self._plan = self._make_plan()
-        due = [timer for timer in self._plan.timers if timer.handle.is_timer_ready()]
+        due = [timer for timer in self._plan.timers if _timer_ready(timer)]
         for timer in due:
             self._call_timer(timer)
         taken = False
@@ -270,6 +270,14 @@ class Callbacks:
             return entity.callback(*args)
         finally:
             group.ending_execution(entity)
+
+
+def _timer_ready(timer: Timer) -> bool:
+    try:
+        with timer.handle:
+            return bool(timer.handle.is_timer_ready())
+    except InvalidHandle:  # destroyed by a callback of this pass
+        return False
 
 
 #: How to add each kind of entity to an rcl wait set.
