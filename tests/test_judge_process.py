@@ -14,6 +14,7 @@ import threading
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
+from typing import Any
 
 import pytest
 from jupyter_client import KernelManager
@@ -69,6 +70,44 @@ def test_closing_a_kernel_sends_it_nothing(tmp_path: Path) -> None:
     assert sent == []
 
 
+class Following:
+    """The kernel's node following a ``/clock`` of the test's own node ``name``
+    (``AGENT.follow_clock`` up to ``until``), once it has said its first ack; ``acked``
+    holds its acks as the judge reads them."""
+
+    def __init__(self, session: Session, kernel: judge.Kernel, name: str, until: float) -> None:
+        from std_msgs.msg import String
+
+        from autograder.judge_lab01 import _ack
+
+        self.session, self.kernel, self.until = session, kernel, until
+        self.node = judge.ros_node(name)
+        self.acked = [_ack("")]
+        self.node.create_subscription(
+            String, "/rosbook_judge/clock_ack", lambda m: self.acked.append(_ack(m.data)), 10
+        )
+        self.following = kernel.send("follow_clock", until, 60.0)
+        assert session.spin_until(lambda: self.acked[-1]["now"] >= 0, self.node, timeout=60)
+
+    def finish(self) -> list[Any]:
+        """Publish ``/clock`` at ``until`` until the kernel answers; its answer, in a list,
+        once its ack of ``until`` has arrived too."""
+        clock = judge.clock_publisher(self.node)
+        target = int(round(self.until * 1e9))
+        done: list[Any] = []
+        waiter = threading.Thread(
+            target=lambda: done.append(self.kernel.answer(self.following, 60))
+        )
+        waiter.start()
+        while waiter.is_alive():
+            clock.publish(judge.clock_message(self.until))
+            self.session.spin_until(lambda: not waiter.is_alive(), self.node, timeout=0.2)
+        assert self.session.spin_until(
+            lambda: self.acked[-1]["now"] >= target, self.node, timeout=60
+        )
+        return done
+
+
 def test_a_kernel_says_which_subscriptions_its_node_can_send_to(session: Session) -> None:
     """A publisher sends only to the subscriptions its own participant has discovered;
     the judge's side matching says nothing of that (each side discovers on its own), and
@@ -76,9 +115,9 @@ def test_a_kernel_says_which_subscriptions_its_node_can_send_to(session: Session
     feedback that way. While following the judge's /clock the kernel names, in its acks,
     the subscriptions its node discovered on each topic it sends on, and the judge waits
     to be among them before time moves."""
-    from std_msgs.msg import Int64, String
+    from std_msgs.msg import Int64
 
-    from autograder.judge_lab01 import _ack, wait_until_discovered
+    from autograder.judge_lab01 import wait_until_discovered
 
     talker = (
         "from rclpy.node import Node\n"
@@ -90,36 +129,20 @@ def test_a_kernel_says_which_subscriptions_its_node_can_send_to(session: Session
     )
     with judged_kernel(talker) as kernel:
         assert kernel.call("start", "Talker", {}, True)["name"] == "talker"
-        node = judge.ros_node("judge_listener")
-        acked = [_ack("")]
-        node.create_subscription(
-            String, "/rosbook_judge/clock_ack", lambda m: acked.append(_ack(m.data)), 10
-        )
-        following = kernel.send("follow_clock", 1.0, 60.0)
-        assert session.spin_until(lambda: acked[-1]["now"] >= 0, node, timeout=60)
+        run = Following(session, kernel, "judge_listener", until=1.0)
+        node, acked = run.node, run.acked
         assert acked[-1]["readers"] == {"/counter": set()}  # nobody listens yet
         node.create_subscription(Int64, "/counter", lambda m: None, 10)
         wait_until_discovered(acked, node, "/counter", "judge_listener", "talker")
         (mine,) = node.get_subscriptions_info_by_topic("/counter")
         assert acked[-1]["readers"]["/counter"] == {bytes(mine.endpoint_gid).hex()}
-        clock = judge.clock_publisher(node)
-        done: list = []
-        waiter = threading.Thread(target=lambda: done.append(kernel.answer(following, 60)))
-        waiter.start()
-        while waiter.is_alive():
-            clock.publish(judge.clock_message(1.0))
-            session.spin_until(lambda: False, node, timeout=0.2)
-        assert done == [{"timeout": False}]
+        assert run.finish() == [{"timeout": False}]
 
 
 def test_a_kernel_acks_a_time_once_every_callback_due_then_has_run(session: Session) -> None:
     """The judge stamps what the kernel's node sent with the time it acked: every
     callback due at that time must have run before the ack, however many fall due
     together (the agent ran a fixed 8, so a ninth timer's message was stamped late)."""
-    from std_msgs.msg import String
-
-    from autograder.judge_lab01 import _ack
-
     timers = (
         "from rclpy.node import Node\n"
         "from std_msgs.msg import Int64\n"
@@ -133,22 +156,9 @@ def test_a_kernel_acks_a_time_once_every_callback_due_then_has_run(session: Sess
     )
     with judged_kernel(timers) as kernel:
         assert kernel.call("start", "Many", {}, True)["name"] == "many"
-        node = judge.ros_node("judge_acks")
-        acked = [_ack("")]
-        node.create_subscription(
-            String, "/rosbook_judge/clock_ack", lambda m: acked.append(_ack(m.data)), 10
-        )
-        following = kernel.send("follow_clock", 0.1, 60.0)
-        assert session.spin_until(lambda: acked[-1]["now"] >= 0, node, timeout=60)
-        clock = judge.clock_publisher(node)
-        done: list = []
-        waiter = threading.Thread(target=lambda: done.append(kernel.answer(following, 60)))
-        waiter.start()
-        while waiter.is_alive():
-            clock.publish(judge.clock_message(0.1))
-            session.spin_until(lambda: acked[-1]["now"] >= 100_000_000, node, timeout=0.2)
-        assert done == [{"timeout": False}]
-        first = next(ack for ack in acked if ack["now"] >= 100_000_000)
+        run = Following(session, kernel, "judge_acks", until=0.1)
+        assert run.finish() == [{"timeout": False}]
+        first = next(ack for ack in run.acked if ack["now"] >= 100_000_000)
         assert first["published"].get("/counter") == 12, first
 
 

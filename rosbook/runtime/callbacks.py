@@ -14,7 +14,6 @@ the judge's ``/clock``.
 from __future__ import annotations
 
 import inspect
-import time
 from collections.abc import Callable
 from typing import Any, NamedTuple
 
@@ -32,6 +31,7 @@ from rclpy.timer import Timer
 from rclpy.waitable import NumberOfEntities, Waitable
 
 from rosbook.runtime.executors import SingleThreadedExecutor
+from rosbook.runtime.session import spin_while_waiting
 
 
 def run_round(executor: SingleThreadedExecutor) -> bool:
@@ -160,13 +160,7 @@ class Callbacks:
 
     def spin_until(self, condition: Callable[[], bool], timeout: float) -> bool:
         """Spin until ``condition()`` holds or ``timeout`` s have passed; whether it holds."""
-        deadline = time.monotonic() + timeout
-        while not condition():
-            left = deadline - time.monotonic()
-            if left <= 0:
-                return False
-            self.spin(min(left, 0.05))
-        return True
+        return spin_while_waiting(self.spin, condition, timeout)
 
     def _make_plan(self) -> _Plan:
         """What this serves (timers, subscriptions, services), what it leaves to rclpy."""

@@ -324,6 +324,14 @@ def spin_node_until(node: Node, condition: Callable[[], bool], timeout: float) -
 def _spin_executor(
     executor: SingleThreadedExecutor, condition: Callable[[], bool], timeout: float
 ) -> bool:
+    return spin_while_waiting(lambda s: executor.spin_once(timeout_sec=s), condition, timeout)
+
+
+def spin_while_waiting(
+    spin: Callable[[float], None], condition: Callable[[], bool], timeout: float
+) -> bool:
+    """Call ``spin(seconds)`` (for at most ``POLL_S`` s each) until ``condition()`` holds
+    or ``timeout`` s have passed; whether it holds."""
     deadline = time.monotonic() + timeout
     while True:
         if condition():
@@ -331,7 +339,7 @@ def _spin_executor(
         remaining = deadline - time.monotonic()
         if remaining <= 0:
             return False
-        executor.spin_once(timeout_sec=min(POLL_S, remaining))
+        spin(min(POLL_S, remaining))
 
 
 def _drain(executor: SingleThreadedExecutor, rounds: int) -> None:
