@@ -111,6 +111,7 @@ class _RosbookJudgeAgent:
         from rosbook.runtime.callbacks import WakingExecutor
         self.stop()
         ros.init(sim_time=sim_time)
+        ros.hold_participant()  # the next check's node is seen at once: same participant
         ros.reset()
         if parameters:
             kwargs = dict(kwargs, parameter_overrides=[
@@ -538,6 +539,13 @@ def judge_one(request: dict[str, Any], kernels: dict[str, Kernel]) -> Verdict:
     kernel = kernels.get(request["connection_file"])
     if kernel is None:
         kernel = kernels[request["connection_file"]] = Kernel(request["connection_file"])
+    # Checks make and destroy their nodes one after another: one participant for them
+    # all (a new one is discovered anew, 0.1-0.3 s, by the kernel, at every sub-check).
+    # Held from the first check, not from the judge's start: a participant of the
+    # judge's already there while the student's first cells ran (the kernel making its
+    # own, then making it again for simulated time) left the sandboxed kernel unable
+    # to send its replies (zmq: "Socket operation on non-socket"), every time.
+    ros.hold_participant()
     try:
         check(Judgement(kernel, Path(request["folder"]), request.get("sandbox_pid")))
         return Verdict(grade_id, True)
