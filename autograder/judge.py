@@ -539,12 +539,13 @@ def judge_one(request: dict[str, Any], kernels: dict[str, Kernel]) -> Verdict:
     kernel = kernels.get(request["connection_file"])
     if kernel is None:
         kernel = kernels[request["connection_file"]] = Kernel(request["connection_file"])
-    # Checks make and destroy their nodes one after another: one participant for them
-    # all (a new one is discovered anew, 0.1-0.3 s, by the kernel, at every sub-check).
-    # Held from the first check, not from the judge's start: a participant of the
-    # judge's already there while the student's first cells ran (the kernel making its
-    # own, then making it again for simulated time) left the sandboxed kernel unable
-    # to send its replies (zmq: "Socket operation on non-socket"), every time.
+    # A check makes and destroys its nodes sub-check after sub-check: one participant
+    # for them all (a new one is discovered anew, 0.1-0.3 s, by the kernel, each time).
+    # Only while the check runs: between checks the judge has no participant, as it
+    # never had, so the student's cells (which may make the kernel's participant again)
+    # run with none of the judge's about. One held from the judge's start, there while
+    # the first cells ran, left the sandboxed kernel unable to send its replies (zmq:
+    # "Socket operation on non-socket"), every time; the cause is not known.
     ros.hold_participant()
     try:
         check(Judgement(kernel, Path(request["folder"]), request.get("sandbox_pid")))
@@ -558,6 +559,7 @@ def judge_one(request: dict[str, Any], kernels: dict[str, Kernel]) -> Verdict:
         return Verdict(grade_id, False, f"the judge failed on this check:\n{tail}", broken=True)
     finally:
         ros.reset()
+        ros.hold_participant(False)
         try:
             kernel.call("stop", guard=10.0)
         except Exception:  # noqa: S110 - the kernel's state is the student's
