@@ -404,13 +404,24 @@ class Judgement:
         shown += [f"Parameter({k!r}, value={v!r})" for k, v in (parameters or {}).items()]
         call = f"{factory}({', '.join(shown)})"
         try:
-            return self.kernel.call("start", factory, kwargs, sim_time, parameters)  # type: ignore[no-any-return]
+            info = self.kernel.call("start", factory, kwargs, sim_time, parameters)
         except KernelError as exc:
             if "NotImplementedError" in str(exc):
                 raise CheckFailed(
                     f"{call}: this task is not done yet (NotImplementedError)"
                 ) from None
             raise CheckFailed(f"{call} raised {exc}") from None
+        # A check makes and destroys its nodes sub-check after sub-check: one participant
+        # of the judge's for them all (a new one is discovered anew, 0.1-0.3 s, by the
+        # kernel, each time), from the check's first node to its end (``judge_one``
+        # releases it). Made only now, after the kernel's node, as the judge's first node
+        # always was: the kernel may have made its participant again for this node (a
+        # switch of time source), and between checks, while the student's cells run, the
+        # judge has none. One held from the judge's start, there while the first cells
+        # ran, left the sandboxed kernel unable to send its replies (zmq: "Socket
+        # operation on non-socket"), every time; the cause is not known.
+        ros.hold_participant()
+        return info  # type: ignore[no-any-return]
 
     def value(self, name: str) -> Any:
         """The kernel's global ``name`` (numbers, strings, sequences of numbers)."""
@@ -539,14 +550,6 @@ def judge_one(request: dict[str, Any], kernels: dict[str, Kernel]) -> Verdict:
     kernel = kernels.get(request["connection_file"])
     if kernel is None:
         kernel = kernels[request["connection_file"]] = Kernel(request["connection_file"])
-    # A check makes and destroys its nodes sub-check after sub-check: one participant
-    # for them all (a new one is discovered anew, 0.1-0.3 s, by the kernel, each time).
-    # Only while the check runs: between checks the judge has no participant, as it
-    # never had, so the student's cells (which may make the kernel's participant again)
-    # run with none of the judge's about. One held from the judge's start, there while
-    # the first cells ran, left the sandboxed kernel unable to send its replies (zmq:
-    # "Socket operation on non-socket"), every time; the cause is not known.
-    ros.hold_participant()
     try:
         check(Judgement(kernel, Path(request["folder"]), request.get("sandbox_pid")))
         return Verdict(grade_id, True)
