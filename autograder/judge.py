@@ -411,15 +411,13 @@ class Judgement:
                     f"{call}: this task is not done yet (NotImplementedError)"
                 ) from None
             raise CheckFailed(f"{call} raised {exc}") from None
-        # A check makes and destroys its nodes sub-check after sub-check: one participant
-        # of the judge's for them all (a new one is discovered anew, 0.1-0.3 s, by the
-        # kernel, each time), from the check's first node to its end (``judge_one``
-        # releases it). Made only now, after the kernel's node, as the judge's first node
-        # always was: the kernel may have made its participant again for this node (a
-        # switch of time source), and between checks, while the student's cells run, the
-        # judge has none. One held from the judge's start, there while the first cells
-        # ran, left the sandboxed kernel unable to send its replies (zmq: "Socket
-        # operation on non-socket"), every time; the cause is not known.
+        # One participant of the judge's for the check's sub-checks (Session.
+        # hold_participant), from now to the check's end (``judge_one`` releases it):
+        # made after the kernel's node, as the judge's first node always was, so a kernel
+        # making its participant again (a switch of time source) or running the
+        # student's cells between checks never has one of the judge's about. Held from
+        # the judge's start, it left the sandboxed kernel unable to send its replies
+        # (zmq: "Socket operation on non-socket"), every time; the cause is not known.
         ros.hold_participant()
         return info  # type: ignore[no-any-return]
 

@@ -111,9 +111,8 @@ class Session:
             self._hold = hold
             if hold:
                 self._keep_participant()
-            elif self._keeper is not None:
-                _destroy(self._keeper)
-                self._keeper = None
+            else:
+                self._drop_keeper()
 
     def _keep_participant(self) -> None:
         if not self._hold or not rclpy.ok():
@@ -128,6 +127,11 @@ class Session:
             enable_rosout=False,
         )
 
+    def _drop_keeper(self) -> None:
+        if self._keeper is not None:
+            _destroy(self._keeper)
+            self._keeper = None
+
     def shutdown(self) -> None:
         """Destroy the session's nodes and shut the context down (safe to repeat).
 
@@ -139,9 +143,7 @@ class Session:
             if self._spinner is not None:
                 self._spinner.shutdown(timeout_sec=0)
                 self._spinner = None
-            if self._keeper is not None:
-                _destroy(self._keeper)
-                self._keeper = None
+            self._drop_keeper()
             rclpy.try_shutdown()
             self._sim_time = False
 
