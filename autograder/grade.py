@@ -9,7 +9,9 @@ started is killed afterwards. A broken submission costs its own row, never the b
 from __future__ import annotations
 
 import atexit
+import contextlib
 import hashlib
+import itertools
 import json
 import os
 import queue
@@ -41,6 +43,7 @@ from autograder.worker import Job, refusal
 from rosbook.launch.launcher import _die_with_launcher as die_with_parent
 from rosbook.runtime.isolation import (
     RUN_MARKER,
+    DomainReservation,
     child_env,
     kill_marked,
     kill_orphans,
@@ -143,12 +146,15 @@ def grade_one(
     work: Path,
     cell_timeout: int,
     submission_timeout: float,
+    ahead: bool = True,
 ) -> Graded:
     """Grade one student's assignment; always returns a result, never raises for bad input.
 
     ``files`` is the student's assignment folder (None when there is none). Everything
     happens in a scratch folder under ``work`` that is removed afterwards, and every
     output comes back as data: the same call grades locally and on a Dask worker.
+    ``ahead``: the slot will likely grade another submission (its kernel is started
+    ahead, at the end of this one: ``WorkerSlot``).
     """
     aid = assignment.assignment_id
     started = time.monotonic()
@@ -211,7 +217,8 @@ def grade_one(
     for name, data in (files or {}).items():
         (folder / name).parent.mkdir(parents=True, exist_ok=True)
         (folder / name).write_bytes(data)
-    with reserve_domain() as domain:
+    domain, following = slot.domains(ahead)
+    with domain:
         job = Job(
             str(assignment.template),
             aid,
@@ -222,6 +229,7 @@ def grade_one(
             str(feedback),
             cell_timeout,
             env=domain.env({}),
+            next_env=following.env({}) if following else {},
             log=str(log_file),
         )
         result = slot.run(job, submission_timeout)
@@ -237,6 +245,10 @@ def grade_one(
     return finish(result["score"], result["status"], result["message"], [] if scored else None)
 
 
+#: How long an idle worker is given to end on its own once told there is no more work.
+IDLE_STOP_S = 10.0
+
+
 def start_slots(workers: int) -> list[WorkerSlot]:
     """``workers`` (at least one) worker processes, started: they import while we go on."""
     slots = [WorkerSlot() for _ in range(max(1, workers))]
@@ -246,11 +258,25 @@ def start_slots(workers: int) -> list[WorkerSlot]:
 
 
 class WorkerSlot:
-    """One long-lived worker process; replaced when it has to be killed."""
+    """One long-lived worker process; replaced when it has to be killed.
+
+    Each job also tells the worker the ROS domain of the slot's next job, reserved
+    with it, so that the worker can start that job's kernel ahead (``kernels.Spare``).
+    """
 
     def __init__(self) -> None:
         self.proc: subprocess.Popen[bytes] | None = None
         self.results: int | None = None
+        self.next_domain: DomainReservation | None = None
+        self.busy = False  # a job was sent and its answer not yet read
+
+    def domains(self, ahead: bool) -> tuple[DomainReservation, DomainReservation | None]:
+        """The domain of the job about to run (the one reserved for it with the slot's
+        last job, if this worker runs on) and, if ``ahead``, one reserved for the slot's
+        next job."""
+        current = self.next_domain or reserve_domain()
+        self.next_domain = reserve_domain() if ahead else None
+        return current, self.next_domain
 
     def start(self) -> None:
         read_end, write_end = os.pipe()
@@ -266,6 +292,7 @@ class WorkerSlot:
         )
         os.close(write_end)
         self.results = read_end
+        self.busy = False
 
     def run(self, job: Job, timeout: float) -> dict[str, object] | None:
         """The worker's result for ``job``, or None when it overran ``timeout``."""
@@ -273,9 +300,11 @@ class WorkerSlot:
             self.stop()
             self.start()
         assert self.proc is not None and self.proc.stdin is not None
+        self.busy = True
         self.proc.stdin.write((json.dumps(asdict(job)) + "\n").encode())
         self.proc.stdin.flush()
         line = self._read_line(timeout)
+        self.busy = line is None  # overran: still at work
         token = job.env[RUN_MARKER]
         if line is None:
             self.stop()
@@ -319,8 +348,15 @@ class WorkerSlot:
         if self.proc is not None:
             if self.proc.stdin is not None:
                 self.proc.stdin.close()
+            if not self.busy:  # it ends on its own, its kernel started ahead shut down
+                with contextlib.suppress(subprocess.TimeoutExpired):
+                    self.proc.wait(timeout=IDLE_STOP_S)
             kill_process_group(self.proc)
             self.proc = None
+        if self.next_domain is not None:  # the kernel started ahead for it, if any
+            kill_marked(self.next_domain.token)
+            self.next_domain.release()
+            self.next_domain = None
         if self.results is not None:
             os.close(self.results)
             self.results = None
@@ -524,18 +560,28 @@ def run_local(
     for slot in every_slot:
         slots.put(slot)
     stopping = threading.Event()
+    started = itertools.count(1)
 
     def run(task: Task) -> Graded | None:
         if stopping.is_set():
             return None
         slot = slots.get()
         assignment = assignments[task.assignment_id]
+        # every slot still has a submission to come after this one
+        ahead = len(tasks) - next(started) >= len(every_slot)
         try:
             files = read_submission(
                 submissions, task.student_id, task.assignment_id, assignment.notebook
             )
             graded = grade_one(
-                slot, assignment, task.student_id, files, work, cell_timeout, submission_timeout
+                slot,
+                assignment,
+                task.student_id,
+                files,
+                work,
+                cell_timeout,
+                submission_timeout,
+                ahead,
             )
         except Exception as exc:  # the grader's own failure: this submission's row says so
             detail = f"{type(exc).__name__}: {exc}"

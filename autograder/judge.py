@@ -34,7 +34,9 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
 
+import rclpy
 from jupyter_client.blocking import BlockingKernelClient
+from rclpy.context import Context
 from rclpy.event_handler import PublisherEventCallbacks
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
@@ -43,6 +45,7 @@ from rosgraph_msgs.msg import Clock
 
 from autograder import sandbox
 from rosbook.labs.probes import ScriptRun, StillRunning, run_script
+from rosbook.runtime.isolation import reserve_domain
 from rosbook.runtime.session import ros
 
 #: Generous wall-clock guards against hangs; hitting one is reported as "timeout".
@@ -468,10 +471,16 @@ class Judgement:
         finally:
             ros.remove(watcher)
 
-    def script(self, name: str, *ros_args: str) -> AbstractContextManager[ScriptRun]:
+    def script(
+        self, name: str, *ros_args: str, domain: int | None = None
+    ) -> AbstractContextManager[ScriptRun]:
         """Start the student's program ``name`` (``python name --ros-args ...``) from the
-        judge, so its exit code is the judge's to read; it is gone afterwards."""
-        return run_script(self.folder / name, *ros_args, cwd=self.folder, wrap=self.student_command)
+        judge, so its exit code is the judge's to read; it is gone afterwards. ``domain``:
+        the ROS domain it runs in (default: the judge's)."""
+        env = None if domain is None else {**os.environ, "ROS_DOMAIN_ID": str(domain)}
+        return run_script(
+            self.folder / name, *ros_args, cwd=self.folder, wrap=self.student_command, env=env
+        )
 
     def student_command(self, argv: Sequence[str]) -> list[str]:
         """``argv`` (paths as the judge sees them) run where the student's code runs: in
@@ -519,11 +528,26 @@ def drain(node: Node, rounds: int = 20) -> None:
         executor.shutdown(timeout_sec=0)
 
 
-def ros_node(name: str) -> Node:
-    """A node of the judge's own (destroyed with ``ros.remove``). Nobody asks the judge's
-    nodes for their parameters: without the parameter services their wait set is small
-    (the lockstep checks wait on them several times per simulated tick)."""
-    return Node(name, start_parameter_services=False)
+def ros_node(name: str, context: Context | None = None) -> Node:
+    """A node of the judge's own (destroyed with ``ros.remove``), in ``context`` (default:
+    the session's). Nobody asks the judge's nodes for their parameters: without the
+    parameter services their wait set is small (the lockstep checks wait on them
+    several times per simulated tick)."""
+    return Node(name, context=context, start_parameter_services=False)
+
+
+@contextmanager
+def own_domain() -> Iterator[tuple[int, Context]]:
+    """A ROS domain of its own and an rclpy context in it, for a part of a check that
+    runs alongside another (in a thread): the two parts' traffic never meets. The
+    context's nodes must be destroyed before the block ends."""
+    with reserve_domain() as domain:
+        context = Context()
+        rclpy.init(context=context, domain_id=domain.domain_id)
+        try:
+            yield domain.domain_id, context
+        finally:
+            context.try_shutdown()
 
 
 def clock_publisher(node: Node) -> Any:

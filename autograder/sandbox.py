@@ -378,11 +378,11 @@ def _seed_copy(folder: Path, copy: Path) -> Path:
     """``folder`` without notebooks, readable by anyone (nobody, when root), links kept.
 
     The notebook being graded is nbgrader's copy with the hidden tests restored: a
-    kernel that could read it would print them into its own feedback.
+    kernel that could read it would print them into its own feedback. ``copy`` may
+    exist (a running sandbox's seed, filled late: ``seed_late``): it stays the same folder.
     """
-    shutil.rmtree(copy, ignore_errors=True)
     ignore = shutil.ignore_patterns("*.ipynb", ".ipynb_checkpoints")
-    shutil.copytree(folder, copy, symlinks=True, ignore=ignore)
+    shutil.copytree(folder, copy, symlinks=True, ignore=ignore, dirs_exist_ok=True)
     for path in [copy, *copy.rglob("*")]:
         if not path.is_symlink():
             os.chmod(path, path.stat().st_mode | (0o555 if path.is_dir() else 0o444))
@@ -704,6 +704,32 @@ def init(limits: Limits, seed: str | None, cmd: list[str]) -> None:
         shutil.copytree(SEED, workdir, symlinks=True)
     os.chdir(workdir)
     os.execvp(cmd[0], cmd)
+
+
+#: Run as the student inside a sandbox: copy the seed folder over its copy in the home.
+_COPY_SEED = (
+    "import shutil, sys; shutil.copytree(*sys.argv[1:3], symlinks=True, dirs_exist_ok=True)"
+)
+
+
+def seed_late(pid: int, private: Path, folder: str | os.PathLike[str], limits: Limits) -> None:
+    """Give the running sandbox ``pid`` (started by ``prepare`` from ``private`` with an
+    empty seed of ``folder``'s name) the files of ``folder``, as ``init`` copies a seed
+    at the start: into ``HOME/<name>``, by the student, without the notebooks.
+
+    Raises ``subprocess.CalledProcessError`` (or ``TimeoutExpired``) when the copy
+    failed, e.g. the sandbox has ended."""
+    name = Path(folder).name
+    _seed_copy(Path(folder), private / "seed" / name)  # bound at SEED: seen inside at once
+    workdir = f"{HOME}/{name}"
+    copy = [sys.executable, "-I", "-S", "-c", _COPY_SEED, SEED, workdir]
+    subprocess.run(
+        enter_argv(pid, workdir, copy, limits),
+        check=True,
+        timeout=60,
+        stdin=subprocess.DEVNULL,
+        capture_output=True,
+    )
 
 
 def main(argv: list[str]) -> None:

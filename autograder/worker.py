@@ -43,6 +43,7 @@ class Job:
     feedback: str  # where its feedback HTML goes
     cell_timeout: int
     env: dict[str, str] = field(default_factory=dict)  # the kernel's ROS isolation
+    next_env: dict[str, str] = field(default_factory=dict)  # the next job's, if known
     log: str = ""  # where this job's output goes
 
 
@@ -194,13 +195,16 @@ def grade(job: Job) -> Result:
     )
     started = time.monotonic()
     kernels.REAPED.clear()
-    # The kernel's only network; the judge joins it (verdicts.Judging).
-    with (
-        sandbox.Network() as network,
-        sandbox.using(network),
-        judging(job.assignment_id) as run,
-    ):
-        outcome = grader.autograde(job.assignment_id, job.student_id, force=True, create=True)
+    # The kernel's only network (that of the kernel started for this job at the end of
+    # the last one, if any: kernels.adopt_spare); the judge joins it (verdicts.Judging).
+    network = kernels.adopt_spare(job.env) or sandbox.Network()
+    kernels.expect_next(job.next_env)
+    try:
+        with network, sandbox.using(network), judging(job.assignment_id) as run:
+            outcome = grader.autograde(job.assignment_id, job.student_id, force=True, create=True)
+    finally:
+        kernels.drop_adopted()
+        kernels.expect_next(None)
     print(f"[grader] autograde took {time.monotonic() - started:.2f} s", flush=True)
     if not outcome["success"]:
         log = outcome.get("log", "") + outcome.get("error", "")
@@ -375,10 +379,13 @@ def serve(result_fd: int) -> None:
     # gets a terminal's Ctrl-C, however the grader was started.
     signal.signal(signal.SIGINT, signal.default_int_handler)
     with os.fdopen(result_fd, "w", buffering=1) as results:
-        for line in sys.stdin:
-            if line.strip():
-                result = run_job(Job(**json.loads(line)))
-                results.write(json.dumps(asdict(result)) + "\n")
+        try:
+            for line in sys.stdin:
+                if line.strip():
+                    result = run_job(Job(**json.loads(line)))
+                    results.write(json.dumps(asdict(result)) + "\n")
+        finally:
+            kernels.discard_spare()  # started for a job that never came
 
 
 if __name__ == "__main__":

@@ -9,10 +9,11 @@ import sys
 from pathlib import Path
 from typing import Any
 
+import nbformat
 import pytest
 
-from autograder import grade
-from tests.labtools import answered, submit
+from autograder import grade, kernels
+from tests.labtools import answered, notebook_path, submit
 
 LAB = "lab01_nodes_topics"
 
@@ -55,3 +56,45 @@ def test_a_grading_worker_starts_without_compiling_jsonschemas_iri_grammar() -> 
     )
     assert run.returncode == 0, run.stderr[-2000:]
     assert run.stdout.strip() == "['rfc3987_syntax']"  # the None that stands in for it
+
+
+#: A cell each test student adds after the set-up: what its kernel sees.
+SEEN = """import os
+print("cwd", os.path.basename(os.getcwd()), sorted(os.listdir(".")))
+try:
+    import helper
+    print("helper", helper.WHO)
+except ModuleNotFoundError:
+    print("helper missing")
+"""
+
+
+@pytest.mark.slow
+def test_each_submission_runs_in_a_fresh_kernel_that_sees_only_its_own_files(
+    tmp_path: Path,
+) -> None:
+    """With one worker, the second and third submissions run in kernels started ahead
+    (at the end of the one before): each sees its own folder as a kernel started for it
+    does (its files there, its module importable), nothing of the one before."""
+    notebook = nbformat.read(notebook_path(LAB), as_version=4)  # unanswered: fails fast
+    notebook.cells.insert(2, nbformat.v4.new_code_cell(SEEN))
+    submissions = tmp_path / "submitted"
+    for student, helper in (("ann", "ann"), ("bob", "bob"), ("cid", None)):
+        submit(submissions, student, LAB, notebook)
+        if helper:
+            (submissions / student / LAB / "helper.py").write_text(f"WHO = {helper!r}\n")
+    out = tmp_path / "out"
+    rows = grade.grade_class(submissions, out, assignment_id=LAB, workers=1)
+    assert [r.status for r in rows] == ["ok"] * 3, [r.message for r in rows]
+    seen = {}
+    for student in ("ann", "bob", "cid"):
+        graded = nbformat.read(out / "autograded" / student / LAB / f"{LAB}.ipynb", as_version=4)
+        seen[student] = "".join(o.get("text", "") for o in graded.cells[2].outputs)
+    assert seen["ann"] == "cwd lab01_nodes_topics ['helper.py']\nhelper ann\n", seen
+    assert seen["bob"] == "cwd lab01_nodes_topics ['helper.py']\nhelper bob\n", seen
+    assert seen["cid"] == "cwd lab01_nodes_topics []\nhelper missing\n", seen
+    ahead = {
+        student: kernels.STARTED_AHEAD in (out / "logs" / student / f"{LAB}.log").read_text()
+        for student in ("ann", "bob", "cid")
+    }
+    assert ahead == {"ann": False, "bob": True, "cid": True}

@@ -24,7 +24,7 @@ import subprocess
 import sys
 import sysconfig
 import traceback
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -375,18 +375,19 @@ def run_script(
     *ros_args: str,
     cwd: str | os.PathLike[str] | None = None,
     wrap: Callable[[list[str]], list[str]] = list,
+    env: Mapping[str, str] | None = None,
 ) -> Iterator[ScriptRun]:
     """Start ``python path --ros-args ...`` and make sure it is gone afterwards.
 
     ``wrap`` turns the command into the one actually run (the grader's judge runs a
-    student's script through it)."""
+    student's script through it); ``env``: its environment (default: this process's)."""
     script = Path(path)
     if not script.exists():
         raise CheckFailed(f"{script.name} does not exist: did you run the %%writefile cell?")
     argv = [sys.executable, "-u", str(script)]
     if ros_args:
         argv += ["--ros-args", *ros_args]
-    with run_program(argv, cwd=cwd, wrap=wrap, path=script) as run:
+    with run_program(argv, cwd=cwd, wrap=wrap, path=script, env=env) as run:
         yield run
 
 
@@ -397,12 +398,14 @@ def run_program(
     wrap: Callable[[list[str]], list[str]] = list,
     path: Path | None = None,
     stdin: bool = False,
+    env: Mapping[str, str] | None = None,
 ) -> Iterator[ScriptRun]:
     """Start ``wrap(argv)`` in a process group of its own (output merged, ``stdin``: a
     pipe to write to) and make sure it and what it started are gone afterwards."""
     proc = subprocess.Popen(
         wrap(argv),
         cwd=cwd,
+        env=env,
         stdin=subprocess.PIPE if stdin else subprocess.DEVNULL,
         stdout=subprocess.PIPE,
         stderr=subprocess.STDOUT,
