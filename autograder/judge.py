@@ -528,6 +528,12 @@ def drain(node: Node, rounds: int = 20) -> None:
         executor.shutdown(timeout_sec=0)
 
 
+#: rclpy's own race on Ctrl-C (the signal shuts the context down while spin() builds
+#: its next wait set; the node ends with this error): honest code can lose it, so that
+#: run is tried once more.
+RCLPY_SIGINT_RACE = "the given context is not valid"
+
+
 def ros_node(name: str, context: Context | None = None) -> Node:
     """A node of the judge's own (destroyed with ``ros.remove``), in ``context`` (default:
     the session's). Nobody asks the judge's nodes for their parameters: without the

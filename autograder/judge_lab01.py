@@ -21,6 +21,7 @@ from std_msgs.msg import Int64, String
 
 from autograder.judge import (
     EVENT_GUARD_S,
+    RCLPY_SIGINT_RACE,
     CheckFailed,
     Judgement,
     JudgeTimeout,
@@ -415,11 +416,6 @@ def _spin_republishing(clock: Any, t: float, condition: Callable[[], bool], node
             return False
         clock.publish(clock_message(t))
     return True
-
-
-#: rclpy's own race on Ctrl-C (the signal shuts the context down while spin() builds
-#: its next wait set): honest code can lose it, so that run is tried once more.
-RCLPY_SIGINT_RACE = "the given context is not valid"
 
 
 def _once_more_on_race(part: Callable[[], None]) -> None:

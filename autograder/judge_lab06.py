@@ -45,6 +45,7 @@ from std_msgs.msg import String
 
 from autograder.judge import (
     EVENT_GUARD_S,
+    RCLPY_SIGINT_RACE,
     CheckFailed,
     Judgement,
     JudgeTimeout,
@@ -301,9 +302,12 @@ def lingering() -> None:
 def raced(codes: dict[str, int], lines: list[str]) -> bool:
     """A node stopped by a signal after Ctrl-C, or escalated to: a Python node ends with
     an exit code, so this is rclpy's own race on SIGINT (a hang in ``spin()``, a crash
-    in shutdown), seen with the lab's own nodes on a loaded machine."""
-    return any(code < 0 and code != -signal.SIGINT for code in codes.values()) or any(
-        f"{ESCALATING}SIGTERM" in line for line in lines
+    in shutdown), seen with the lab's own nodes on a loaded machine; or a node that
+    failed with rclpy's race in ``spin()`` (``RCLPY_SIGINT_RACE``)."""
+    return (
+        any(code < 0 and code != -signal.SIGINT for code in codes.values())
+        or any(f"{ESCALATING}SIGTERM" in line for line in lines)
+        or (any(codes.values()) and any(RCLPY_SIGINT_RACE in line for line in lines))
     )
 
 

@@ -98,3 +98,20 @@ def test_feedback_never_shows_hidden_tests(graded: tuple[dict, Path]) -> None:
         _, page = result(graded, student)
         assert "BEGIN HIDDEN TESTS" not in page
         assert "report.assert_rates(" not in page
+
+
+def test_a_node_that_lost_rclpys_ctrl_c_race_gets_its_launch_run_again() -> None:
+    """A node that ends with rclpy's race on Ctrl-C (its context shut down while spin()
+    built a wait set: exit code 1, honest code) has the launch run once more; a node
+    that fails for a reason of its own does not."""
+    from autograder.judge_lab06 import raced
+
+    race = [
+        "[listener-4] rclpy._rclpy_pybind11.RCLError: failed to initialize wait set: "
+        "the given context is not valid, at ./src/rcl/wait.c:82",
+        "[ERROR] [listener-4]: process has died [pid 7, exit code 1, cmd '...'].",
+    ]
+    own = ["[listener-4] ZeroDivisionError: division by zero", race[1]]
+    assert raced({"listener-4": 1, "talker-3": 0}, race)
+    assert not raced({"listener-4": 1, "talker-3": 0}, own)
+    assert not raced({"listener-4": 0, "talker-3": 0}, [])
