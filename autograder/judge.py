@@ -533,6 +533,13 @@ def drain(node: Node, rounds: int = 20) -> None:
 #: run is tried once more.
 RCLPY_SIGINT_RACE = "the given context is not valid"
 
+# Fast DDS's teardown hang, the other way honest code fails to stop (about once in 100
+# runs of three nodes stopped together on a loaded machine): a node's ``destroy_node()``
+# never returns. Fast DDS deletes the node's participant with ``set_listener(nullptr)``,
+# which waits for a discovery callback in flight (another node leaving at that moment);
+# in the wheels' build that wait spins holding the lock the callback needs to finish
+# (eProsima/Fast-DDS#6513), until SIGKILL. Such a run is tried once more.
+
 
 def ros_node(name: str, context: Context | None = None) -> Node:
     """A node of the judge's own (destroyed with ``ros.remove``), in ``context`` (default:

@@ -115,3 +115,37 @@ def test_a_node_that_lost_rclpys_ctrl_c_race_gets_its_launch_run_again() -> None
     assert raced({"listener-4": 1, "talker-3": 0}, race)
     assert not raced({"listener-4": 1, "talker-3": 0}, own)
     assert not raced({"listener-4": 0, "talker-3": 0}, [])
+
+
+def test_a_program_still_running_after_ctrl_c_is_a_timeout_that_shows_its_last_lines() -> None:
+    """A program that outlives its guard after Ctrl-C is a timeout (the judge runs the
+    launch once more: Fast DDS's teardown hang), never "wrong"; what it printed last is
+    in the message, so the log shows where it stood."""
+    import sys
+    import time
+
+    from autograder.judge import JudgeTimeout
+    from autograder.judge_lab06 import STOP_TAIL, Program, StopTimeout
+    from rosbook.labs.probes import run_program
+
+    stubborn = (
+        "import signal, sys, time\n"
+        "signal.signal(signal.SIGINT, signal.SIG_IGN)\n"
+        "for i in range(30): print('line', i)\n"
+        "print('ready', flush=True)\n"
+        "time.sleep(600)\n"
+    )
+    with run_program([sys.executable, "-c", stubborn]) as run:
+        program = Program(run)
+        while "ready" not in program.lines:  # its output, read as it comes
+            assert program.alive(), program.printed()
+            time.sleep(0.01)
+        with pytest.raises(StopTimeout) as raised:
+            program.stop("`stubborn`", guard=1.0)
+    assert isinstance(raised.value, JudgeTimeout)
+    message = str(raised.value)
+    assert message.startswith("`stubborn` was still running 1 s after Ctrl-C (SIGINT)")
+    assert message.endswith(
+        "\n".join([*[f"line {i}" for i in range(30)][-(STOP_TAIL - 1) :], "ready"])
+    )
+    assert "line 0\n" not in message
