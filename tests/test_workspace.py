@@ -214,6 +214,22 @@ def test_sh_presses_ctrl_c_once_the_output_showed_what_it_should(tmp_path: Path)
     assert done.stdout.rstrip().endswith("interrupted") and done.returncode == 130
 
 
+def test_sh_runs_a_launch_whose_ctrl_c_had_to_escalate_once_more(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Fast DDS's teardown hang (a node killed after Ctrl-C, honest code) gets one more
+    run; what the cell prints is that run's."""
+    from rosbook.launch.launcher import ESCALATING
+
+    stuck = f"[WARNING] [talker-1]: {ESCALATING}SIGTERM"
+    command = f"if [ -e ran ]; then echo second; else touch ran; echo '{stuck}'; fi; echo up"
+    done = sh(command, cwd=tmp_path, ctrl_c_after="never")
+    assert done.stdout == "second\nup\n"
+    assert capsys.readouterr().out == f"$ {command}\nsecond\nup\n"
+    (tmp_path / "ran").unlink()
+    assert sh(command, cwd=tmp_path, echo=False).stdout == f"{stuck}\nup\n"  # no Ctrl-C: once
+
+
 def test_sh_waits_for_every_pattern_and_says_timeout_when_one_never_comes(tmp_path: Path) -> None:
     with pytest.raises(subprocess.TimeoutExpired) as caught:
         sh("echo ready; sleep 60", cwd=tmp_path, ctrl_c_after=["ready", "never"], timeout=2)

@@ -509,9 +509,32 @@ def sh(
     With ``ctrl_c_after`` (a regular expression, or several), Ctrl-C is pressed (SIGINT to
     the command's process group, as a terminal sends it) once ``times`` output lines have
     matched each: a program that runs until Ctrl-C is stopped after what it should show,
-    however slow the machine. ``timeout`` only guards against a hang: past it the command
-    is killed and ``subprocess.TimeoutExpired`` says what was seen.
+    however slow the machine. A ``ros2 launch`` whose Ctrl-C had to escalate to SIGTERM
+    is run once more: nodes stopped together sometimes hang in Fast DDS's teardown
+    (eProsima/Fast-DDS#6513; ``book/computation_graph.md``), and the book shows a
+    usual run. ``timeout`` only guards against a hang: past it the command is killed and
+    ``subprocess.TimeoutExpired`` says what was seen.
     """
+    from rosbook.launch.launcher import ESCALATING  # the launcher imports this module
+
+    done = _run_in_terminal(command, cwd, env, timeout, ctrl_c_after, times)
+    if ctrl_c_after is not None and f"{ESCALATING}SIGTERM" in done.stdout:
+        done = _run_in_terminal(command, cwd, env, timeout, ctrl_c_after, times)
+    if echo:
+        print(f"$ {command}")
+        print(done.stdout, end="")
+    return done
+
+
+def _run_in_terminal(
+    command: str,
+    cwd: str | os.PathLike[str],
+    env: Mapping[str, str] | None,
+    timeout: float,
+    ctrl_c_after: str | Sequence[str] | None,
+    times: int,
+) -> subprocess.CompletedProcess[str]:
+    """One run of ``sh``'s command (as ``sh`` says), not printed."""
     run_env = dict(os.environ if env is None else env)
     run_env["PATH"] = f"{Path(sys.executable).parent}{os.pathsep}{run_env.get('PATH', '')}"
     run_env.setdefault("RCUTILS_LOGGING_BUFFERED_STREAM", "1")  # log lines as written
@@ -553,11 +576,7 @@ def sh(
         )
         waited = waited or "its end"
         raise subprocess.TimeoutExpired(command, timeout, output=f"timeout: {waited}\n{output}")
-    done = subprocess.CompletedProcess(["bash", "-c", command], process.returncode, output)
-    if echo:
-        print(f"$ {command}")
-        print(done.stdout, end="")
-    return done
+    return subprocess.CompletedProcess(["bash", "-c", command], process.returncode, output)
 
 
 def _kill_group(process: subprocess.Popen[str]) -> None:
