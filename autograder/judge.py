@@ -528,17 +528,15 @@ def drain(node: Node, rounds: int = 20) -> None:
         executor.shutdown(timeout_sec=0)
 
 
-#: rclpy's own race on Ctrl-C (the signal shuts the context down while spin() builds
-#: its next wait set; the node ends with this error): honest code can lose it, so that
-#: run is tried once more.
+# Two ways honest code fails on Ctrl-C; a run that met either is tried once more.
+# - rclpy's own race: the signal shuts the context down while spin() builds its next wait
+#   set, and the node ends with RCLPY_SIGINT_RACE.
+# - Fast DDS's teardown hang (about once in 100 runs of three nodes stopped together on a
+#   loaded machine): ``destroy_node()`` never returns. Fast DDS deletes the participant
+#   with ``set_listener(nullptr)``, which waits for a discovery callback in flight
+#   (another node leaving at that moment); in the wheels' build that wait spins holding
+#   the lock the callback needs to finish (eProsima/Fast-DDS#6513), until SIGKILL.
 RCLPY_SIGINT_RACE = "the given context is not valid"
-
-# Fast DDS's teardown hang, the other way honest code fails to stop (about once in 100
-# runs of three nodes stopped together on a loaded machine): a node's ``destroy_node()``
-# never returns. Fast DDS deletes the node's participant with ``set_listener(nullptr)``,
-# which waits for a discovery callback in flight (another node leaving at that moment);
-# in the wheels' build that wait spins holding the lock the callback needs to finish
-# (eProsima/Fast-DDS#6513), until SIGKILL. Such a run is tried once more.
 
 
 def ros_node(name: str, context: Context | None = None) -> Node:

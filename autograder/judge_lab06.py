@@ -57,7 +57,7 @@ from autograder.judge import (
 from autograder.judge_lab01 import CLOCK_RETRY_S
 from rosbook.labs import lab06
 from rosbook.labs.probes import Probe, ScriptRun, run_program
-from rosbook.launch.launcher import ESCALATING
+from rosbook.launch.launcher import ESCALATED
 from rosbook.runtime.session import ros
 
 #: What the hidden checks expect (the lab's contract).
@@ -320,7 +320,7 @@ def raced(codes: dict[str, int], lines: list[str]) -> bool:
     node that failed with rclpy's race in ``spin()`` (``RCLPY_SIGINT_RACE``)."""
     return (
         any(code < 0 and code != -signal.SIGINT for code in codes.values())
-        or any(f"{ESCALATING}SIGTERM" in line for line in lines)
+        or any(ESCALATED in line for line in lines)
         or (any(codes.values()) and any(RCLPY_SIGINT_RACE in line for line in lines))
     )
 

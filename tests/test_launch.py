@@ -18,6 +18,7 @@ from std_msgs.msg import String
 from rosbook.labs.lab06 import add_reference_package
 from rosbook.labs.probes import Probe
 from rosbook.launch.launcher import (
+    ESCALATED,
     Launch,
     LaunchDescription,
     LaunchError,
@@ -332,10 +333,6 @@ def read_until(
 
 def started_pids(text: str) -> list[int]:
     return [int(p) for p in re.findall(r"process started with pid \[(\d+)\]", text)]
-
-
-#: What the launcher says of a node that Ctrl-C did not stop.
-ESCALATED = "still running: sending SIGTERM"
 
 
 def launched_and_stopped(

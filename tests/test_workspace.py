@@ -219,9 +219,9 @@ def test_sh_runs_a_launch_whose_ctrl_c_had_to_escalate_once_more(
 ) -> None:
     """Fast DDS's teardown hang (a node killed after Ctrl-C, honest code) gets one more
     run; what the cell prints is that run's."""
-    from rosbook.launch.launcher import ESCALATING
+    from rosbook.launch.launcher import ESCALATED
 
-    stuck = f"[WARNING] [talker-1]: {ESCALATING}SIGTERM"
+    stuck = f"[WARNING] [talker-1]: {ESCALATED}"
     command = f"if [ -e ran ]; then echo second; else touch ran; echo '{stuck}'; fi; echo up"
     done = sh(command, cwd=tmp_path, ctrl_c_after="never")
     assert done.stdout == "second\nup\n"

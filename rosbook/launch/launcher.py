@@ -702,6 +702,9 @@ class Process:
 
 #: What the launcher says of a process Ctrl-C did not stop, before the signal's name.
 ESCALATING = "still running: sending "
+#: In a launch's output: a process Ctrl-C did not stop (callers run such a launch again
+#: when honest nodes can hang on their way out: Fast DDS's teardown hang, eProsima/Fast-DDS#6513).
+ESCALATED = f"{ESCALATING}SIGTERM"
 
 #: Launches not shut down yet: stopped when the interpreter exits.
 _running: set[Launch] = set()

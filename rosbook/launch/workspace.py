@@ -515,10 +515,10 @@ def sh(
     usual run. ``timeout`` only guards against a hang: past it the command is killed and
     ``subprocess.TimeoutExpired`` says what was seen.
     """
-    from rosbook.launch.launcher import ESCALATING  # the launcher imports this module
+    from rosbook.launch.launcher import ESCALATED  # the launcher imports this module
 
     done = _run_in_terminal(command, cwd, env, timeout, ctrl_c_after, times)
-    if ctrl_c_after is not None and f"{ESCALATING}SIGTERM" in done.stdout:
+    if ctrl_c_after is not None and ESCALATED in done.stdout:
         done = _run_in_terminal(command, cwd, env, timeout, ctrl_c_after, times)
     if echo:
         print(f"$ {command}")
