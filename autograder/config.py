@@ -17,8 +17,9 @@ LABS = ROOT / "labs"
 #: builds a package with colcon needs a generous one on a busy machine).
 CELL_TIMEOUT_S = 60
 
-# nbgrader runs `alembic` (its database migrations) as a command: the venv's bin
-# folder must be on PATH even when the venv's python was started by its full path.
+# nbgrader runs `alembic` (its database migrations) as a command (`nbgrader db upgrade`,
+# and a new gradebook's revision where autograder.course does not answer it): the venv's
+# bin folder must be on PATH even when the venv's python was started by its full path.
 _BIN = str(Path(sys.executable).parent)
 if _BIN not in os.environ.get("PATH", "").split(os.pathsep):
     os.environ["PATH"] = _BIN + os.pathsep + os.environ.get("PATH", "")

@@ -9,7 +9,6 @@ limit: a worker that overruns is killed with everything it started, and replaced
 
 from __future__ import annotations
 
-import functools
 import json
 import os
 import shutil
@@ -21,7 +20,6 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
 import nbformat
-import nbgrader.api
 from nbgrader.api import Gradebook, MissingEntry
 from nbgrader.utils import compute_checksum
 
@@ -340,12 +338,6 @@ def judged_status(page: Path, judged: Judged, status: str, message: str) -> tupl
     )
     add_notice(page, "Checks that passed only inside your notebook", said, "tampered")
     return "tampered", f"{message} {said}".strip()
-
-
-# nbgrader asks the `alembic` command for its schema head every time it opens a
-# gradebook (a process start, about 0.4 s, several times per submission); the answer
-# is fixed for the installed nbgrader, so ask once per worker.
-nbgrader.api.get_alembic_version = functools.cache(nbgrader.api.get_alembic_version)
 
 
 def run_job(job: Job) -> Result:

@@ -11,6 +11,7 @@ from typing import Any
 
 import nbformat
 import pytest
+from nbgrader.dbutil import ALEMBIC_DIR
 
 from autograder import grade, kernels
 from tests.labtools import answered, notebook_path, submit
@@ -56,6 +57,38 @@ def test_a_grading_worker_starts_without_compiling_jsonschemas_iri_grammar() -> 
     )
     assert run.returncode == 0, run.stderr[-2000:]
     assert run.stdout.strip() == "['rfc3987_syntax']"  # the None that stands in for it
+
+
+def test_a_new_gradebook_is_stamped_with_nbgraders_schema_head_without_a_command(
+    tmp_path: Path,
+) -> None:
+    """nbgrader asks the `alembic heads` command (a Python start importing nbgrader
+    again: 0.4-5.5 s) for the revision of each gradebook it creates; the grader reads
+    it in its own process. With no command reachable the gradebook is still made, with
+    the revision the command gives."""
+    (tmp_path / "alembic.ini").write_text(f"[alembic]\nscript_location = {ALEMBIC_DIR}\n")
+    heads = subprocess.run(
+        [str(Path(sys.executable).parent / "alembic"), "-c", "alembic.ini", "heads"],
+        cwd=tmp_path,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert heads.returncode == 0, heads.stderr[-2000:]
+    code = (
+        "import os, sqlite3, sys, autograder.course; from nbgrader.api import Gradebook; "
+        "os.environ['PATH'] = ''; "
+        "Gradebook('sqlite:///' + sys.argv[1]).close(); "
+        "print(sqlite3.connect(sys.argv[1]).execute('select * from alembic_version').fetchall())"
+    )
+    made = subprocess.run(
+        [sys.executable, "-c", code, str(tmp_path / "gradebook.db")],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert made.returncode == 0, made.stderr[-2000:]
+    assert made.stdout.strip() == repr([(heads.stdout.split()[0],)])
 
 
 #: A cell each test student adds after the set-up: what its kernel sees.
