@@ -129,7 +129,7 @@ class _RosbookJudgeAgent:
             "subscriptions": self.node.get_subscriber_names_and_types_by_node(name, ns),
         })
 
-    def follow_clock(self, until, guard):
+    def follow_clock(self, until, guard, gate=None):
         """Spin the node on the judge's /clock up to ``until``. After each new time, once
         its due callbacks ran, say on /rosbook_judge/clock_ack the time and how many
         messages it has published on each topic, and action feedback messages under
@@ -140,7 +140,12 @@ class _RosbookJudgeAgent:
         it grows: the judge sends a sensor reading and waits for it to be taken before it
         moves time on); "readers" lists, by topic the node publishes on, the subscriptions
         (GIDs) its participant has discovered: a publisher sends only to those it knows,
-        so the judge waits to be among them before it lets the node send."""
+        so the judge waits to be among them before it lets the node send.
+
+        With ``gate`` (a topic the node subscribes to), a /clock message for time T is
+        held until the node has taken a message on ``gate`` stamped T or later: the judge
+        sends a sensor reading and the time it is for at once, and the node's timers at T
+        still run after its callback took the reading (one round trip per step)."""
         import json
         import time
         import rclpy
@@ -184,16 +189,49 @@ class _RosbookJudgeAgent:
 
         taken = {}
         callbacks = []
+        gated = {"stamp": -1}  # the latest stamp taken on the gate
+        holders = []  # per /clock subscription: [its held message, its own callback]
+
+        def stamp_ns(time_msg):
+            return time_msg.sec * 1_000_000_000 + time_msg.nanosec
+
+        def release():
+            for holder in holders:
+                held, callback = holder
+                if held is not None and gated["stamp"] >= stamp_ns(held.clock):
+                    holder[0] = None
+                    callback(held)
+
         for sub in self.node.subscriptions:
-            if sub.topic_name != "/clock":
-                callbacks.append((sub, sub.callback))
+            callbacks.append((sub, sub.callback))
+            if sub.topic_name == "/clock":
+                if gate is not None:
+                    holder = [None, sub.callback]
+                    holders.append(holder)
 
-                def taking(*args, _sub=sub, _callback=sub.callback):
-                    result = _callback(*args)
-                    taken[_sub.topic_name] = taken.get(_sub.topic_name, 0) + 1
-                    return result
+                    def holding(msg, _holder=holder):
+                        if stamp_ns(msg.clock) >= target:  # the end: never held
+                            _holder[0] = None
+                            _holder[1](msg)
+                        else:
+                            _holder[0] = msg
+                            release()
 
-                sub.callback = taking
+                    sub.callback = holding
+                continue
+
+            def taking(*args, _sub=sub, _callback=sub.callback):
+                if _sub.topic_name == gate:  # taken, whatever its callback then does
+                    header = getattr(args[0], "header", None)
+                    gated["stamp"] = max(gated["stamp"], stamp_ns(header.stamp)
+                                         if header is not None else 1 << 62)
+                result = _callback(*args)
+                taken[_sub.topic_name] = taken.get(_sub.topic_name, 0) + 1
+                if _sub.topic_name == gate:
+                    release()
+                return result
+
+            sub.callback = taking
         said = -1
         # the node's callbacks as a lockstep runs them: passes, then rcl's wait on a kept
         # wait set (rclpy's executor builds one per callback and wakes once more after it)

@@ -117,8 +117,8 @@ class RemoteClock:
     goes on spinning the node: its services, actions and parameters answer.
     """
 
-    def __init__(self, j: Judgement, name: str) -> None:
-        self.kernel, self.name = j.kernel, name
+    def __init__(self, j: Judgement, name: str, gate: str | None = None) -> None:
+        self.kernel, self.name, self.gate = j.kernel, name, gate
         self.node = ros_node("judge_clock")
         self.clock = clock_publisher(self.node)
         self.acked: list[dict[str, Any]] = [_ack("")]
@@ -142,7 +142,7 @@ class RemoteClock:
             what=f"node '{name}' does not listen to /clock",
             guard=LOCKSTEP_GUARD_S,
         )
-        self.following = self.kernel.send("follow_clock", FOREVER_S, HOLD_GUARD_S)
+        self.following = self.kernel.send("follow_clock", FOREVER_S, HOLD_GUARD_S, gate)
         wait_for(
             lambda: self.acks.get_publisher_count() > 0 and self.acked[-1]["now"] >= 0,
             self.node,
@@ -189,7 +189,10 @@ class RemoteClock:
             if self._spin_until(lambda: self.acked[-1]["now"] >= target, nodes, CLOCK_RETRY_S):
                 break
             if time.monotonic() > deadline:
-                raise JudgeTimeout(f"node '{self.name}' did not follow /clock to t = {t:g} s")
+                waited = f" (nor took {self.gate} stamped then)" if self.gate else ""
+                raise JudgeTimeout(
+                    f"node '{self.name}' did not follow /clock to t = {t:g} s{waited}"
+                )
         published = self.acked[-1]["published"]
         if not self._spin_until(lambda: self.arrived(published), nodes, LOCKSTEP_GUARD_S):
             raise JudgeTimeout(
@@ -226,11 +229,13 @@ FOREVER_S = 1e6
 
 
 @contextmanager
-def remote_clock(j: Judgement, name: str) -> Iterator[RemoteClock]:
-    """A ``RemoteClock`` for node ``name`` for the time of the block. The kernel's
-    following always ends with it; an exception the node's callbacks raised there comes
-    out as a ``KernelError``, which wins over what the judge saw of it (it says why)."""
-    clock = RemoteClock(j, name)
+def remote_clock(j: Judgement, name: str, gate: str | None = None) -> Iterator[RemoteClock]:
+    """A ``RemoteClock`` for node ``name`` for the time of the block (with ``gate``, a
+    time moves on in the kernel once the node took a message on that topic stamped with
+    it: ``AGENT.follow_clock``). The kernel's following always ends with it; an exception
+    the node's callbacks raised there comes out as a ``KernelError``, which wins over what
+    the judge saw of it (it says why)."""
+    clock = RemoteClock(j, name, gate)
     try:
         yield clock
     except BaseException:

@@ -6,10 +6,11 @@ return values judged here. For the driving tasks the judge runs the simulator it
 node runs in the kernel on the judge's ``/clock`` (``RemoteClock``), in lockstep on
 simulated time, tick by tick as ``rosbook.sim.node.Simulation`` does in one process:
 
-1. the physics steps one tick and the sensors are published;
-2. once the node's subscription has taken the new ``odom`` (the kernel says how many
-   messages its subscriptions took), ``/clock`` moves to the new time;
-3. once the kernel says the node's due timers ran, and every ``cmd_vel`` it says it
+1. the physics steps one tick, the sensors are published and ``/clock`` moves to the
+   new time; the kernel holds that time until the node's subscription has taken the
+   new ``odom`` (stamped with it), so the node's callback sees the reading before its
+   timers at that time run;
+2. once the kernel says the node's due timers ran, and every ``cmd_vel`` it says it
    published has arrived, the simulator takes the commands and the next tick begins.
 
 So the node sees what it would see in the kernel's own simulator, the run is the same
@@ -120,7 +121,7 @@ def drive(
             guard=LOCKSTEP_GUARD_S,
         )
         until = finish.until(sim)  # type: ignore[arg-type]
-        with callbacks_explained(), remote_clock(j, name) as clock:
+        with callbacks_explained(), remote_clock(j, name, gate="/odom") as clock:
             wait_until_discovered(clock.acked, clock.node, "/cmd_vel", sim.node.get_name(), name)
 
             def commands_arrived(published: dict[str, int]) -> bool:
@@ -143,14 +144,15 @@ def drive(
                     )
                 if advance:
                     sim.node.advance(TICK_S)
-                sim.node.publish_sensors(force=not advance)
-                clock.wait_for(
-                    odom_taken,
-                    what=f"node '{name}' did not take odom at t = {sim.now:g} s",
-                    guard=LOCKSTEP_GUARD_S,
-                )
-                if advance:
+                    sim.node.publish_sensors()
                     clock.advance(sim.now - clock.now, clock.node, step=sim.now - clock.now)
+                else:  # the first reading, at the time the node starts at
+                    sim.node.publish_sensors(force=True)
+                    clock.wait_for(
+                        odom_taken,
+                        what=f"node '{name}' did not take odom at t = {sim.now:g} s",
+                        guard=LOCKSTEP_GUARD_S,
+                    )
                 advance = True
         drive_checks.assert_commanded(sim.node.commands, seconds)
         return drive_checks.DriveRun(sim, RemoteNode(name), world, sim.now)  # type: ignore[arg-type]
