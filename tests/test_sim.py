@@ -206,6 +206,27 @@ def test_cmd_vel_drives_the_circle_and_odom_reports_it() -> None:
     assert (last.twist.twist.linear.x, last.twist.twist.angular.z) == pytest.approx((0.3, 0.6))
     assert (last.header.frame_id, last.child_frame_id) == ("odom", "base_link")
     assert driver.get_clock().now().nanoseconds == 5_000_000_000
+    # sent as serialized bytes refilled in place: the message odometry() makes, field
+    # for field (the covariances and the rest as a fresh Odometry has them)
+    assert last == sim.node.odometry()
+
+
+def test_serialized_fields_are_found_or_refused() -> None:
+    from rclpy.serialization import deserialize_message
+
+    from rosbook.runtime.cdr import CdrFields
+
+    msg = Odometry()
+    msg.header.frame_id = "odom"
+    with pytest.raises(TypeError, match="pose.covariance is a double\\[36\\]"):
+        CdrFields(msg, ("pose.covariance",))
+    fields = CdrFields(msg, ("header.stamp.nanosec", "twist.twist.angular.z"))
+    sent = deserialize_message(fields.pack(7, -0.5), Odometry)
+    assert (sent.header.stamp.nanosec, sent.twist.twist.angular.z) == (7, -0.5)
+    assert sent.header.frame_id == "odom" and sent.pose == msg.pose
+    assert fields.unpack(fields.pack(3, 2.5)) == (3, 2.5)
+    with pytest.raises(TypeError, match="header.frame_id is a string"):
+        CdrFields(msg, ("header.frame_id",))
 
 
 @pytest.mark.usefixtures("reset_session")

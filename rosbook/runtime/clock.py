@@ -29,6 +29,8 @@ from rclpy.publisher import Publisher
 from rclpy.qos import QoSProfile
 from rosgraph_msgs.msg import Clock
 
+from rosbook.runtime.cdr import CdrFields
+
 #: Wall seconds between re-publishing a step nobody has followed yet.
 REPUBLISH_S = 0.05
 #: Default wall-clock limit for the nodes to follow one step (a guard against hangs).
@@ -63,7 +65,7 @@ class LockstepClock:
             QoSProfile(depth=10),
             event_callbacks=PublisherEventCallbacks(use_default_callbacks=False),
         )
-        self._msg = Clock()
+        self._msg = CdrFields(Clock(), ("clock.sec", "clock.nanosec"))  # sent serialized
         self.now_ns = 0
 
     @property
@@ -73,8 +75,7 @@ class LockstepClock:
 
     def publish(self) -> None:
         """Publish the current time (again, for a node that missed it)."""
-        self._msg.clock.sec, self._msg.clock.nanosec = stamp(self.now_ns)
-        self._pub.publish(self._msg)
+        self._pub.publish(self._msg.pack(*stamp(self.now_ns)))
 
     def subscriber_count(self) -> int:
         """How many time sources (in any process) listen to this clock."""

@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import array
 import math
+import operator
 import time
 from collections.abc import Callable
 
@@ -45,6 +46,7 @@ from rclpy.qos import QoSProfile
 from sensor_msgs.msg import LaserScan
 
 from rosbook.runtime.callbacks import Callbacks, WakingExecutor, run_round, timer_due
+from rosbook.runtime.cdr import CdrFields
 from rosbook.runtime.clock import CATCH_UP_TIMEOUT_S, LockstepClock, stamp, to_ns
 from rosbook.runtime.session import Session, notebook_session
 from rosbook.sim.physics import DiffDriveSim, LaserSpec, RobotGeometry, Trajectory, World
@@ -53,6 +55,19 @@ from rosbook.sim.physics import DiffDriveSim, LaserSpec, RobotGeometry, Trajecto
 CMD_TIMEOUT_S = 0.5
 #: Ticks between the lockstep loop's full rounds of rclpy's executor (for QoS events).
 EVENTS_EVERY_TICKS = 50
+#: What the simulator's ``odom`` says (the rest of the message never changes).
+ODOM_FIELDS = (
+    "header.stamp.sec",
+    "header.stamp.nanosec",
+    "pose.pose.position.x",
+    "pose.pose.position.y",
+    "pose.pose.orientation.z",
+    "pose.pose.orientation.w",
+    "twist.twist.linear.x",
+    "twist.twist.angular.z",
+)
+#: The two numbers of a ``cmd_vel`` a differential drive obeys, in a serialized Twist.
+TWIST_CDR = CdrFields(Twist(), ("linear.x", "angular.z"))
 
 
 class DiffDriveSimNode(Node):
@@ -91,6 +106,9 @@ class DiffDriveSimNode(Node):
         self._odom = Odometry()
         self._odom.header.frame_id = "odom"
         self._odom.child_frame_id = "base_link"
+        # what a step changes, written into the serialized message (rclpy's conversion
+        # of an Odometry costs as much as a physics step)
+        self._odom_cdr = CdrFields(self._odom, ODOM_FIELDS)
         self._scan = LaserScan()
         self._scan.header.frame_id = "laser_frame"
         self.cmd_sub = self.create_subscription(
@@ -111,17 +129,20 @@ class DiffDriveSimNode(Node):
         """
         taken = 0
         while True:
-            with self.cmd_sub.handle:
-                got = self.cmd_sub.handle.take_message(self.cmd_sub.msg_type, self.cmd_sub.raw)
+            with self.cmd_sub.handle:  # serialized: v and w read from their places
+                got = self.cmd_sub.handle.take_message(self.cmd_sub.msg_type, True)
             if got is None:
                 return taken
-            self._on_cmd_vel(got[0])
+            self._command(*TWIST_CDR.unpack(got[0]))
             taken += 1
 
     def _on_cmd_vel(self, msg: Twist) -> None:
+        self._command(msg.linear.x, msg.angular.z)
+
+    def _command(self, v: float, w: float) -> None:
         self.commands += 1
         self._last_cmd_time = self.sim.time
-        self.sim.command(msg.linear.x, msg.angular.z)
+        self.sim.command(v, w)
 
     @property
     def commanded(self) -> bool:
@@ -139,7 +160,7 @@ class DiffDriveSimNode(Node):
         """Publish ``odom`` and ``scan`` if their period is due (or ``force``)."""
         t = self.sim.time
         if force or t >= self._next_odom - 1e-9:
-            self.odom_pub.publish(self.odometry())
+            self.odom_pub.publish(self._odom_cdr.pack(*self._odom_values()))
             self._next_odom = t + self.odom_period
         if force or t >= self._next_scan - 1e-9:
             self.scan_pub.publish(self.laser_scan())
@@ -147,17 +168,18 @@ class DiffDriveSimNode(Node):
 
     def odometry(self) -> Odometry:
         """The odometry now (the node's one ``Odometry`` message, refilled)."""
+        msg = self._odom
+        for path, value in zip(ODOM_FIELDS, self._odom_values(), strict=True):
+            parent, _, name = path.rpartition(".")
+            setattr(operator.attrgetter(parent)(msg), name, value)
+        return msg
+
+    def _odom_values(self) -> tuple[float, ...]:
+        """The values of ``ODOM_FIELDS`` now: stamp, pose in the plane, twist."""
         pose = self.sim.pose
         v, w = self.sim.twist
-        msg = self._odom
-        msg.header.stamp.sec, msg.header.stamp.nanosec = stamp(to_ns(self.sim.time))
-        msg.pose.pose.position.x = pose.x
-        msg.pose.pose.position.y = pose.y
-        msg.pose.pose.orientation.z = math.sin(pose.yaw / 2)
-        msg.pose.pose.orientation.w = math.cos(pose.yaw / 2)
-        msg.twist.twist.linear.x = v
-        msg.twist.twist.angular.z = w
-        return msg
+        sec, nanosec = stamp(to_ns(self.sim.time))
+        return (sec, nanosec, pose.x, pose.y, math.sin(pose.yaw / 2), math.cos(pose.yaw / 2), v, w)
 
     def laser_scan(self) -> LaserScan:
         """The scan now (the node's one ``LaserScan`` message, refilled)."""
