@@ -16,12 +16,14 @@ import signal
 import sys
 import time
 import traceback
+import warnings
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
 import nbformat
 from nbgrader.api import Gradebook, MissingEntry
 from nbgrader.utils import compute_checksum
+from sqlalchemy.exc import SAWarning
 
 from autograder import kernels, sandbox
 from autograder.course import api
@@ -199,7 +201,11 @@ def grade(job: Job) -> Result:
     kernels.expect_next(job.next_env)
     try:
         with network, sandbox.using(network), judging(job.assignment_id) as run:
-            outcome = grader.autograde(job.assignment_id, job.student_id, force=True, create=True)
+            with warnings.catch_warnings():  # as in gradebook.record: nbgrader's harmless
+                warnings.simplefilter("ignore", SAWarning)  # autoflush warnings, not in logs
+                outcome = grader.autograde(
+                    job.assignment_id, job.student_id, force=True, create=True
+                )
     finally:
         kernels.drop_adopted()
         kernels.expect_next(None)
