@@ -21,8 +21,9 @@ def alembic_head() -> str:
 
     nbgrader asks the `alembic heads` command for it each time it creates a gradebook:
     a Python start that imports nbgrader again (without the autograder's stand-in for
-    rfc3987_syntax), 0.4-5.5 s depending on the machine, twice per graded class and once
-    per worker. The answer is fixed for the installed nbgrader.
+    rfc3987_syntax), 0.4-5.5 s depending on the machine, for the course template's
+    gradebook of every class and once per worker. The answer is fixed for the installed
+    nbgrader.
     """
     return ScriptDirectory(ALEMBIC_DIR).get_current_head()
 
