@@ -15,7 +15,7 @@ import signal
 import subprocess
 import sys
 import threading
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
 
 import pytest
@@ -23,7 +23,7 @@ from std_msgs.msg import String
 
 from rosbook.labs.lab06 import add_reference_package
 from rosbook.labs.probes import Probe
-from rosbook.launch.launcher import Launch, LaunchError, include
+from rosbook.launch.launcher import ESCALATED, Launch, LaunchError, include
 from rosbook.launch.workspace import Workspace, create_package
 from rosbook.runtime.params import get_parameter
 from rosbook.runtime.session import Session
@@ -90,9 +90,10 @@ def ros2_launch(env: dict[str, str], *argv: str) -> subprocess.CompletedProcess[
     )
 
 
-def stop(proc: subprocess.Popen[str], lines: list[str]) -> str:
+def stop(proc: subprocess.Popen[str], lines: list[str], *, escalated_ok: bool = False) -> str:
     """One Ctrl-C; everything it printed (read on from ``lines``, through the same buffer);
-    every process it started stopped cleanly. It is SIGKILLed if that takes 30 s."""
+    every process it started stopped cleanly (or, ``escalated_ok``, the launcher had to
+    escalate). It is SIGKILLed if that takes 30 s."""
     assert proc.stdout is not None
     os.killpg(proc.pid, signal.SIGINT)
     watchdog = threading.Timer(30.0, os.killpg, (proc.pid, signal.SIGKILL))
@@ -100,8 +101,35 @@ def stop(proc: subprocess.Popen[str], lines: list[str]) -> str:
     text = "".join(lines) + proc.stdout.read()
     watchdog.cancel()
     proc.wait()
+    if escalated_ok and ESCALATED in text:
+        return text
     assert proc.returncode == 0, f"timeout: {text}" if proc.returncode == -9 else text
     return text
+
+
+def run_and_stop(
+    env: dict[str, str],
+    launched: list[subprocess.Popen[str]],
+    argv: Sequence[str],
+    started: str,
+    while_running: Callable[[], object],
+) -> str:
+    """``ros2 launch ARGV`` until it printed ``started`` and ``while_running()`` (the
+    test's checks of the running system) returned, then ``stop``: what it printed.
+
+    Nodes stopped together by one Ctrl-C sometimes hang in Fast DDS's participant
+    teardown (eProsima/Fast-DDS#6513, about 1 launch in 150 under load) and the launcher
+    escalates to SIGKILL, as upstream's does: right for the launcher, not what these
+    tests are about. That run, and only that, is tried once more (as in test_launch)."""
+    for attempt in range(2):
+        proc = start_launch(env, *argv)
+        launched.append(proc)
+        lines = read_until(proc, started, [])
+        while_running()
+        text = stop(proc, lines, escalated_ok=attempt == 0)
+        if ESCALATED not in text:
+            return text
+    raise AssertionError("unreachable: the second run's stop asserts a clean one")
 
 
 def wait_until_spinning(session: Session, names: set[tuple[str, str]], *probes: Probe) -> Probe:
@@ -151,19 +179,20 @@ def test_arguments_namespaces_conditions_and_parameter_files_reach_the_graph(
     env: dict[str, str], session: Session, launched: list[subprocess.Popen[str]]
 ) -> None:
     source = Path(env["ROS_SRC"]) / "launch" / "example_arguments.launch.py"
+
+    def running() -> None:
+        probe = wait_until_spinning(
+            session,
+            {("talker", "/robot2"), ("config_talker", "/")},
+            Probe("/robot2/chatter", String),
+            Probe("/chatter", String),
+        )
+        assert get_parameter(probe.node, "/robot2/talker", "rate", timeout=30.0) == 5.0
+        assert get_parameter(probe.node, "/config_talker", "rate", timeout=30.0) == 8.0  # yaml
+
     # path mode, as upstream: the arguments follow the file
-    proc = start_launch(env, str(source), "rate:=5.0", "robot:=robot2", "with_listener:=false")
-    launched.append(proc)
-    lines = read_until(proc, "process started", [])
-    probe = wait_until_spinning(
-        session,
-        {("talker", "/robot2"), ("config_talker", "/")},
-        Probe("/robot2/chatter", String),
-        Probe("/chatter", String),
-    )
-    assert get_parameter(probe.node, "/robot2/talker", "rate", timeout=30.0) == 5.0
-    assert get_parameter(probe.node, "/config_talker", "rate", timeout=30.0) == 8.0  # yaml
-    text = stop(proc, lines)
+    argv = (str(source), "rate:=5.0", "robot:=robot2", "with_listener:=false")
+    text = run_and_stop(env, launched, argv, "process started", running)
     assert "[INFO] [launch.user]: Launching for robot2 in the lab" in text
     assert text.count("process started") == 2, text  # with_listener:=false: no listener
     assert "[talker-1] [INFO]" in text and "[robot2.talker]: Publishing" in text
@@ -172,12 +201,16 @@ def test_arguments_namespaces_conditions_and_parameter_files_reach_the_graph(
 def test_an_include_passes_its_launch_arguments_and_a_timer_runs_a_conditioned_process(
     env: dict[str, str], session: Session, launched: list[subprocess.Popen[str]]
 ) -> None:
-    proc = start_launch(env, "launch_tutorial", "example_main.launch.py")
-    launched.append(proc)
     # 2 s on, the condition (new_rate == 4.0 and use_provided_rate) holds: the process runs
-    lines = read_until(proc, "rate of talker2/talker: 4.0", [])
-    wait_until_spinning(session, {("talker", "/talker2")}, Probe("/talker2/chatter", String))
-    text = stop(proc, lines)
+    text = run_and_stop(
+        env,
+        launched,
+        ("launch_tutorial", "example_main.launch.py"),
+        "rate of talker2/talker: 4.0",
+        lambda: wait_until_spinning(
+            session, {("talker", "/talker2")}, Probe("/talker2/chatter", String)
+        ),
+    )
     assert "[echo-2] rate of talker2/talker: 4.0" in text, text
     assert "[INFO] [echo-2]: process has finished cleanly" in text, text
 
@@ -185,11 +218,13 @@ def test_an_include_passes_its_launch_arguments_and_a_timer_runs_a_conditioned_p
 def test_a_package_launch_file_of_the_integrating_tutorial_runs(
     env: dict[str, str], session: Session, launched: list[subprocess.Popen[str]]
 ) -> None:
-    proc = start_launch(env, "launch_tutorial", "my_script_launch.py")
-    launched.append(proc)
-    lines = read_until(proc, "process started", [])
-    wait_until_spinning(session, {("talker", "/")}, Probe("/chatter", String))
-    text = stop(proc, lines)
+    text = run_and_stop(
+        env,
+        launched,
+        ("launch_tutorial", "my_script_launch.py"),
+        "process started",
+        lambda: wait_until_spinning(session, {("talker", "/")}, Probe("/chatter", String)),
+    )
     pid = int(text.split("process started with pid [")[1].split("]")[0])
     assert not alive(pid)
 
