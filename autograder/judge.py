@@ -3,8 +3,8 @@
 A test cell runs in the student's kernel, after the student's cells, so anything it
 prints or asserts is the student's to change (an input transformer can turn it into
 ``pass``). The judge is a separate process, started by the grading worker with
-``python -I -m autograder.judge`` (``-I``: the submission's folder is never on its
-``sys.path``), that sees the student's code only through what it cannot forge:
+``python -I -m autograder.judge <assignment>`` (``-I``: the submission's folder is never
+on its ``sys.path``), that sees the student's code only through what it cannot forge:
 
 - ROS traffic: it is started on the kernel's DDS network (the sandbox's), publishes the
   stimuli and ``/clock`` itself and records what arrives on its own subscriptions;
@@ -30,7 +30,7 @@ import time
 import traceback
 from collections.abc import Callable, Iterator, Sequence
 from contextlib import AbstractContextManager, contextmanager
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -73,6 +73,9 @@ class Verdict:
     timeout: bool = False
     #: The judge itself failed (a bug of the grader's, not the student's): no verdict.
     broken: bool = False
+    #: What the check showed of the runs it judged (nbformat ``display_data`` outputs,
+    #: figures of the lab's ``show_*``), in order: the cell's output shows them.
+    outputs: list[dict[str, Any]] = field(default_factory=list)
 
 
 class CheckFailed(AssertionError):
@@ -430,6 +433,17 @@ class Judgement:
     folder: Path
     #: The kernel's sandbox (its first process), whose folder ``folder`` is seen through.
     sandbox_pid: int | None = None
+    #: What the check showed (``show``), as nbformat outputs for the verdict.
+    outputs: list[dict[str, Any]] = field(default_factory=list)
+
+    def show(self, shown: Any) -> None:
+        """Show ``shown`` (anything IPython displays: a figure, a scene) in the test
+        cell's output, as a cell showing it in the kernel would: a figure of a run the
+        judge made, so the kernel need not make it again."""
+        from IPython.core.formatters import DisplayFormatter
+
+        data, metadata = DisplayFormatter().format(shown)
+        self.outputs.append({"output_type": "display_data", "data": data, "metadata": metadata})
 
     def start_node(
         self,
@@ -621,13 +635,15 @@ def judge_one(request: dict[str, Any], kernels: dict[str, Kernel]) -> Verdict:
     kernel = kernels.get(request["connection_file"])
     if kernel is None:
         kernel = kernels[request["connection_file"]] = Kernel(request["connection_file"])
+    judgement = Judgement(kernel, Path(request["folder"]), request.get("sandbox_pid"))
+    shown = judgement.outputs
     try:
-        check(Judgement(kernel, Path(request["folder"]), request.get("sandbox_pid")))
-        return Verdict(grade_id, True)
+        check(judgement)
+        return Verdict(grade_id, True, outputs=shown)
     except (JudgeTimeout, StillRunning) as exc:
-        return Verdict(grade_id, False, f"timeout: {exc}", timeout=True)
+        return Verdict(grade_id, False, f"timeout: {exc}", timeout=True, outputs=shown)
     except AssertionError as exc:
-        return Verdict(grade_id, False, str(exc))
+        return Verdict(grade_id, False, str(exc), outputs=shown)
     except Exception:  # the judge's own failure: say so, never pass
         tail = "\n".join(traceback.format_exc().strip().splitlines()[-4:])
         return Verdict(grade_id, False, f"the judge failed on this check:\n{tail}", broken=True)
@@ -652,8 +668,15 @@ def _stdout_for_verdicts() -> Iterator[Any]:
         verdicts.close()
 
 
-def serve() -> None:
+def serve(assignment_id: str | None = None) -> None:
+    """Answer requests until stdin ends. With ``assignment_id`` (the grader's), the
+    lab's checks and the modules they show figures with (its ``PRELOAD``) are imported
+    first, while the kernel starts and the student's cells run."""
     ros.init()
+    if assignment_id in JUDGED_LABS:
+        module = importlib.import_module(JUDGED_LABS[assignment_id])
+        for name in getattr(module, "PRELOAD", ()):
+            importlib.import_module(name)
     kernels: dict[str, Kernel] = {}
     with _stdout_for_verdicts() as verdicts:
         try:
@@ -679,4 +702,4 @@ if __name__ == "__main__":
     # classes ``judge_one`` catches.
     from autograder import judge
 
-    judge.serve()
+    judge.serve(sys.argv[1] if len(sys.argv) > 1 else None)

@@ -187,14 +187,22 @@ def check_wheel_speeds(j: Judgement) -> None:
 
 
 def check_square_driver(j: Judgement) -> None:
-    for kwargs, name, side, world, seconds in (
-        ({}, "square_driver", 1.0, World(arena=(-1.5, -1.5, 2.5, 2.5)), 35.0),
+    for kwargs, name, side, world, seconds, title in (
+        (
+            {},
+            "square_driver",
+            1.0,
+            World(arena=(-1.5, -1.5, 2.5, 2.5)),
+            35.0,
+            "SquareDriver(), side 1 m",
+        ),
         (
             {"node_name": "square_b", "side": 0.6},
             "square_b",
             0.6,
             World(arena=(-2.0, -2.0, 2.0, 2.0), start=(0.5, -0.8, math.pi / 2)),
             30.0,
+            "SquareDriver(side=0.6) from (0.5, -0.8) heading +y",
         ),
     ):
         start = world.start[:2]
@@ -207,37 +215,43 @@ def check_square_driver(j: Judgement) -> None:
             name=name,
             **kwargs,
         )
+        j.show(drive_checks.path_image(run, title, marks=drive_checks.square_corners(run, side)))
         drive_checks.assert_no_collision(run)
         drive_checks.assert_stopped(run)
         drive_checks.assert_square(run, side)
 
 
 def check_go_to_pose(j: Judgement) -> None:
-    for kwargs, name, world, goal, seconds, oscillation in (
+    for k, (kwargs, name, world, goal, seconds, oscillation, title) in enumerate(
         (
-            {},
-            "go_to_pose",
-            World(arena=(-1.0, -1.0, 2.5, 2.0)),
-            (1.5, 1.0, math.pi / 2),
-            25.0,
-            True,
-        ),
-        (
-            {"node_name": "go_b"},
-            "go_b",
-            World(arena=(-2.2, -1.5, 1.0, 1.6), boxes=(Box((0.3, 1.0), (0.4, 0.4)),)),
-            (-1.5, 0.9, -math.pi / 2),
-            25.0,
-            True,
-        ),
-        (
-            {},
-            "go_to_pose",
-            World(arena=(-1.0, -2.0, 1.5, 1.0), start=(0.0, 0.0, -math.pi / 2)),
-            (0.6, -1.3, 3.0),
-            20.0,
-            False,
-        ),
+            (
+                {},
+                "go_to_pose",
+                World(arena=(-1.0, -1.0, 2.5, 2.0)),
+                (1.5, 1.0, math.pi / 2),
+                25.0,
+                True,
+                "GoToPose, goal (1.5, 1.0), heading 1.57",
+            ),
+            (
+                {"node_name": "go_b"},
+                "go_b",
+                World(arena=(-2.2, -1.5, 1.0, 1.6), boxes=(Box((0.3, 1.0), (0.4, 0.4)),)),
+                (-1.5, 0.9, -math.pi / 2),
+                25.0,
+                True,
+                "GoToPose, goal (-1.5, 0.9) behind the robot",
+            ),
+            (
+                {},
+                "go_to_pose",
+                World(arena=(-1.0, -2.0, 1.5, 1.0), start=(0.0, 0.0, -math.pi / 2)),
+                (0.6, -1.3, 3.0),
+                20.0,
+                False,
+                "GoToPose, goal (0.6, -1.3) near the walls",
+            ),
+        )
     ):
         run = drive(
             j,
@@ -249,6 +263,9 @@ def check_go_to_pose(j: Judgement) -> None:
             goal=goal,
             **kwargs,
         )
+        j.show(drive_checks.path_image(run, title, goal=goal[:2]))
+        if k == 0:  # the recorded 3D twin, once per lab
+            j.show(drive_checks.twin_scene(run))
         drive_checks.assert_no_collision(run, goal[:2])
         if oscillation:
             drive_checks.assert_not_oscillating(run)
@@ -256,6 +273,9 @@ def check_go_to_pose(j: Judgement) -> None:
         drive_checks.assert_heading(run, goal[2])
         drive_checks.assert_stopped(run, last=1.0)
 
+
+#: What the checks show figures with: the judge imports them before the first check.
+PRELOAD = ("IPython.display", "IPython.core.formatters", "rosbook.sim.plot", "rosbook.viz.twin")
 
 CHECKS = {
     "test_wheel_speeds": check_wheel_speeds,

@@ -4,13 +4,13 @@
 test cell runs in the student's kernel, asks the judge process (``autograder.judge``)
 for its verdict on that cell, with the kernel in the state the student's cells left it.
 The cell then runs in the kernel deferred (``rosbook.labs.deferral``; unless the feedback
-keeps figures its checks show, ``shows_figures``): its checks raise
-``CheckDeferred`` at once instead of running a second time, and the cell's output shows
-the judge's verdict instead. Honest code cannot pass a deferred cell in the kernel, so
-a pass there is a forged one. The verdicts stay in the grading worker, outside the
-kernel; ``apply_verdicts`` then makes them the cells' scores in the gradebook (as
-nbgrader's manual score, so feedback and totals show them) and names the cells whose
-output claimed a pass the judge did not give.
+keeps figures its checks show, ``shows_figures``, and the judge did not show them of its
+own runs): its checks raise ``CheckDeferred`` at once instead of running a second time,
+and the cell's output shows the judge's figures and verdict instead. Honest code cannot
+pass a deferred cell in the kernel, so a pass there is a forged one. The verdicts stay in
+the grading worker, outside the kernel; ``apply_verdicts`` then makes them the cells'
+scores in the gradebook (as nbgrader's manual score, so feedback and totals show them)
+and names the cells whose output claimed a pass the judge did not give.
 """
 
 from __future__ import annotations
@@ -25,6 +25,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+import nbformat
 from nbformat import NotebookNode
 from nbformat.v4 import new_output
 from nbgrader.api import Gradebook
@@ -57,7 +58,7 @@ class Judging:
         judged cell. It is this submission's own and ends with it."""
         if self.process is not None and self.process.poll() is None:
             return
-        argv = [sys.executable, "-I", "-m", "autograder.judge"]
+        argv = [sys.executable, "-I", "-m", "autograder.judge", self.assignment_id]
         network = sandbox.current_network()  # the kernel's: the judge joins it
         self.process = subprocess.Popen(
             network.join_argv(argv) if network is not None else argv,
@@ -151,20 +152,22 @@ class JudgedExecute(CappedExecute):  # type: ignore[misc]
             verdict = _current.verdicts[grade_id] = _current.verdict(
                 grade_id, self.km.connection_file, folder, getattr(self.km, "sandbox_pid", None)
             )
-            if not shows_figures(cell.source):
+            shown = [nbformat.from_dict(output) for output in verdict.outputs]
+            if shown or not shows_figures(cell.source):
                 defer_next_cell(self.kc)
             cell, resources = super().preprocess_cell(cell, resources, index)
-            cell.outputs = [
-                verdict_output(verdict) if is_deferral(output) else output
-                for output in cell.outputs
-            ]
+            outputs = []
+            for output in cell.outputs:
+                outputs += [*shown, verdict_output(verdict)] if is_deferral(output) else [output]
+            cell.outputs = outputs
             return cell, resources
         return super().preprocess_cell(cell, resources, index)  # type: ignore[no-any-return]
 
 
 def shows_figures(source: str) -> bool:
     """Whether a test cell shows figures made by its checks (``checks.show_path(...)``,
-    the labs' ``show_*``): the feedback keeps them, so it runs in the kernel as written."""
+    the labs' ``show_*``): the feedback keeps them, so unless the judge showed them
+    itself (the runs it judged, ``Verdict.outputs``) it runs in the kernel as written."""
     return re.search(r"\.show_\w+\(", source) is not None
 
 

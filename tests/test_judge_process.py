@@ -8,6 +8,7 @@ a guard the judge hits while waiting on a kernel's node says timeout, never wron
 
 from __future__ import annotations
 
+import base64
 import json
 import re
 import threading
@@ -41,6 +42,27 @@ def test_an_assignment_without_judged_checks_starts_no_judge() -> None:
     assert judge.judged_checks("lab99_new") == {}
     with judging("lab99_new") as run:
         assert run.process is None
+
+
+def test_what_a_check_shows_travels_with_its_verdict(tmp_path: Path) -> None:
+    """A figure the judge shows (``Judgement.show``) is a notebook output in the verdict
+    the grader reads back: the test cell shows it instead of making it in the kernel."""
+    from dataclasses import asdict
+
+    import matplotlib.pyplot as plt
+    import nbformat
+    from IPython.display import Image
+
+    from rosbook.sim.plot import png
+
+    j = judge.Judgement(kernel=None, folder=tmp_path)  # type: ignore[arg-type]
+    j.show(Image(png(plt.figure(figsize=(1, 1)))))
+    sent = json.dumps(asdict(judge.Verdict("test_x", False, "wrong", outputs=j.outputs)))
+    (output,) = judge.Verdict(**json.loads(sent)).outputs
+    nbformat.validator.validate(
+        nbformat.v4.new_notebook(cells=[nbformat.v4.new_code_cell(outputs=[output])])
+    )
+    assert base64.b64decode(output["data"]["image/png"]).startswith(b"\x89PNG")
 
 
 def test_closing_a_kernel_sends_it_nothing(tmp_path: Path) -> None:

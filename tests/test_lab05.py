@@ -116,11 +116,15 @@ def page(graded: tuple[dict, Path], student: str) -> str:
 
 
 def test_solution_scores_full_marks_and_its_feedback_shows_the_paths(graded) -> None:
+    """The driving cells' figures are of the runs the judge judged: the kernel does not
+    drive them again (each judged cell is deferred there and shows the judge's pass)."""
     assert score(graded, "right") == ("ok", "10")
-    images = re.findall(r'src="data:image/png;base64,([^"]+)"', page(graded, "right"))
+    shown = page(graded, "right")
+    images = re.findall(r'src="data:image/png;base64,([^"]+)"', shown)
     # two runs of each driving check, visible and hidden (three for go_to_pose)
     assert len(images) >= 5
     assert all(base64.b64decode(img).startswith(b"\x89PNG") for img in images)
+    assert shown.count("passed: the grader checked this cell on your code") == 3
 
 
 def test_feedback_shows_the_go_to_pose_runs_3d_twin_once(graded) -> None:
@@ -150,6 +154,8 @@ def test_oscillating_controller_is_named(graded) -> None:
     text = page(graded, "oscillating")
     assert "the controller oscillates" in text
     assert re.search(r"the turn rate changed direction \d+ times", text)
+    # the judge's figure of the run that failed comes before its verdict
+    assert text.rindex("data:image/png") < text.index("the controller oscillates")
 
 
 def test_node_that_never_stops_fails_in_bounded_time(graded) -> None:

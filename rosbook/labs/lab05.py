@@ -151,6 +151,22 @@ def callback_raised(what: str) -> str:
     return f"a callback of your node raised {what}"
 
 
+def path_image(
+    run: DriveRun,
+    title: str,
+    goal: tuple[float, float] | None = None,
+    marks: Sequence[tuple[float, float]] = (),
+) -> Any:
+    """The run's path as a small PNG (an ``IPython.display.Image``): what ``show_path``
+    shows, and what the grader shows for the runs it judges itself."""
+    from IPython.display import Image
+
+    from rosbook.sim.plot import plot_path, png
+
+    fig = plot_path(run.trajectory, run.world, title=title, goal=goal, marks=marks, size=3.2)
+    return Image(png(fig, dpi=60))
+
+
 def show_path(
     run: DriveRun,
     title: str,
@@ -158,30 +174,32 @@ def show_path(
     marks: Sequence[tuple[float, float]] = (),
 ) -> None:
     """Display the run's path as a small PNG in the cell's output (the feedback)."""
-    from IPython.display import Image, display
+    from IPython.display import display
 
-    from rosbook.sim.plot import plot_path, png
-
-    fig = plot_path(run.trajectory, run.world, title=title, goal=goal, marks=marks, size=3.2)
-    display(Image(png(fig, dpi=60)))
+    display(path_image(run, title, goal, marks))
 
 
 #: Frames per simulated second of the twin shown in the feedback (small and smooth enough).
 TWIN_FPS = 10
 
 
-def show_twin(run: DriveRun, height: int = 320) -> None:
-    """Display the run's recorded 3D twin (the URDF robot replaying the drive).
+def twin_scene(run: DriveRun, height: int = 320) -> Any:
+    """The run's recorded 3D twin (the URDF robot replaying the drive), a ``Scene``.
 
     Outside the book a scene carries its own copy of the MeshCat viewer (about 1 MB of
     JavaScript), so a lab shows the twin once, for one run; the path plots show the rest.
     It renders in JupyterLab and in nbgrader's feedback page (a self-contained iframe).
     """
-    from IPython.display import display
-
     from rosbook.viz import twin
 
-    display(twin.record(run.sim, fps=TWIN_FPS, height=height))
+    return twin.record(run.sim.physics, fps=TWIN_FPS, height=height)
+
+
+def show_twin(run: DriveRun, height: int = 320) -> None:
+    """Display the run's recorded 3D twin (``twin_scene``) in the cell's output."""
+    from IPython.display import display
+
+    display(twin_scene(run, height))
 
 
 # -- kinematics ------------------------------------------------------------------------
