@@ -308,7 +308,7 @@ def check_doubler(j: Judgement) -> None:
         assert_sequence(f"after publishing {values} on /counter", got, doubled)
 
 
-def _talker_runs(j: Judgement, started: Callable[[], None] = lambda: None) -> None:
+def _talker_runs(j: Judgement, started: Callable[[], None]) -> None:
     """talker.py on wall time: 'Hello World: N' on /chatter at 2 Hz, a clean Ctrl-C.
     ``started()`` is called once its publisher is found."""
     ros.reset()
