@@ -145,10 +145,11 @@ class _RosbookJudgeAgent:
         (GIDs) its participant has discovered: a publisher sends only to those it knows,
         so the judge waits to be among them before it lets the node send.
 
-        With ``gate`` (a topic the node subscribes to), a /clock message for time T is
-        held until the node has taken a message on ``gate`` stamped T or later: the judge
-        sends a sensor reading and the time it is for at once, and the node's timers at T
-        still run after its callback took the reading (one round trip per step)."""
+        With ``gate`` (a topic the node subscribes to), the reading carries the time:
+        once the node has taken a message on ``gate`` stamped T, its /clock subscriptions
+        get time T (a /clock message for T, made here), so its timers at T run after its
+        callback took the reading; a /clock message from the judge for a time not reached
+        yet is held until then (one message and one round trip per step)."""
         import json
         import time
         import rclpy
@@ -190,32 +191,45 @@ class _RosbookJudgeAgent:
                     for topic in sending}
             return listed["readers"]
 
+        from rosgraph_msgs.msg import Clock
         taken = {}
         callbacks = []
-        gated = {"stamp": -1}  # the latest stamp taken on the gate
-        holders = []  # per /clock subscription: [its held message, its own callback]
+        # the latest stamp taken on the gate (a message without a header releases every
+        # held time), and the latest time a reading carried
+        gated = {"stamp": -1, "time": -1}
+        # per /clock subscription: [its held message, its own callback, the time it has]
+        holders = []
 
         def stamp_ns(time_msg):
             return time_msg.sec * 1_000_000_000 + time_msg.nanosec
 
+        def deliver(holder, msg):
+            if stamp_ns(msg.clock) > holder[2]:  # time only moves on
+                holder[2] = stamp_ns(msg.clock)
+                holder[1](msg)
+
         def release():
             for holder in holders:
-                held, callback = holder
+                held = holder[0]
                 if held is not None and gated["stamp"] >= stamp_ns(held.clock):
                     holder[0] = None
-                    callback(held)
+                    deliver(holder, held)
+                if gated["time"] > holder[2]:
+                    carried = Clock()
+                    carried.clock.sec, carried.clock.nanosec = divmod(gated["time"], 10**9)
+                    deliver(holder, carried)
 
         for sub in self.node.subscriptions:
             callbacks.append((sub, sub.callback))
             if sub.topic_name == "/clock":
                 if gate is not None:
-                    holder = [None, sub.callback]
+                    holder = [None, sub.callback, -1]
                     holders.append(holder)
 
                     def holding(msg, _holder=holder):
                         if stamp_ns(msg.clock) >= target:  # the end: never held
                             _holder[0] = None
-                            _holder[1](msg)
+                            deliver(_holder, msg)
                         else:
                             _holder[0] = msg
                             release()
@@ -228,6 +242,8 @@ class _RosbookJudgeAgent:
                     header = getattr(args[0], "header", None)
                     gated["stamp"] = max(gated["stamp"], stamp_ns(header.stamp)
                                          if header is not None else 1 << 62)
+                    if header is not None:
+                        gated["time"] = max(gated["time"], stamp_ns(header.stamp))
                 result = _callback(*args)
                 taken[_sub.topic_name] = taken.get(_sub.topic_name, 0) + 1
                 if _sub.topic_name == gate:

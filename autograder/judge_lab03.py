@@ -183,9 +183,14 @@ class RemoteClock:
     def _hold(self, t: float, nodes: tuple[Node, ...]) -> None:
         target = int(round(t * 1e9))
         deadline = time.monotonic() + LOCKSTEP_GUARD_S
-        # a /clock message to a best-effort subscription can be lost: sent again until acked
+        # With a gate the reading sent for time t carries it (the kernel's node takes it,
+        # then reads t): /clock only if no ack comes. A /clock message to a best-effort
+        # subscription can be lost: sent again until acked.
+        send = self.gate is None
         while True:
-            self.clock.publish(clock_message(t))
+            if send:
+                self.clock.publish(clock_message(t))
+            send = True
             if self._spin_until(lambda: self.acked[-1]["now"] >= target, nodes, CLOCK_RETRY_S):
                 break
             if time.monotonic() > deadline:

@@ -6,10 +6,10 @@ return values judged here. For the driving tasks the judge runs the simulator it
 node runs in the kernel on the judge's ``/clock`` (``RemoteClock``), in lockstep on
 simulated time, tick by tick as ``rosbook.sim.node.Simulation`` does in one process:
 
-1. the physics steps one tick, the sensors are published and ``/clock`` moves to the
-   new time; the kernel holds that time until the node's subscription has taken the
-   new ``odom`` (stamped with it), so the node's callback sees the reading before its
-   timers at that time run;
+1. the physics steps one tick and the sensors are published; the ``odom`` reading
+   carries the new time: once the node's subscription has taken it, the kernel moves
+   the node's ``/clock`` to its stamp, so the node's callback sees the reading before
+   its timers at that time run;
 2. once the kernel says the node's due timers ran, and every ``cmd_vel`` it says it
    published has arrived, the simulator takes the commands and the next tick begins.
 

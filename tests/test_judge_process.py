@@ -24,7 +24,7 @@ from autograder import judge, sandbox
 from autograder.judge_lab01 import check_counter_subscriber
 from autograder.verdicts import judging
 from rosbook.runtime.session import Session
-from tests.labtools import solution_answers, strip_markers
+from tests.labtools import grade_id, notebook_path, solution_answers, strip_markers
 
 
 def test_the_judge_starts_with_the_submission_before_any_cell() -> None:
@@ -191,6 +191,23 @@ def test_a_kernel_acks_a_time_once_every_callback_due_then_has_run(session: Sess
         assert first["published"].get("/counter") == 12, first
 
 
+#: A node whose timer records its time and the stamp of the latest odom it took.
+READER = (
+    "from rclpy.node import Node\n"
+    "from nav_msgs.msg import Odometry\n"
+    "class Reader(Node):\n"
+    "    def __init__(self):\n"
+    "        super().__init__('reader')\n"
+    "        self.seen, self.records = None, []\n"
+    "        self.create_subscription(Odometry, 'odom', self.on_odom, 10)\n"
+    "        self.timer = self.create_timer(0.1, self.tick)\n"
+    "    def on_odom(self, msg):\n"
+    "        self.seen = msg.header.stamp.sec * 10**9 + msg.header.stamp.nanosec\n"
+    "    def tick(self):\n"
+    "        self.records.append([self.get_clock().now().nanoseconds, self.seen])\n"
+)
+
+
 def test_a_gated_time_moves_on_in_the_kernel_once_the_reading_stamped_with_it_is_taken(
     session: Session,
 ) -> None:
@@ -200,21 +217,7 @@ def test_a_gated_time_moves_on_in_the_kernel_once_the_reading_stamped_with_it_is
     messages arrive."""
     from nav_msgs.msg import Odometry
 
-    reader = (
-        "from rclpy.node import Node\n"
-        "from nav_msgs.msg import Odometry\n"
-        "class Reader(Node):\n"
-        "    def __init__(self):\n"
-        "        super().__init__('reader')\n"
-        "        self.seen, self.records = None, []\n"
-        "        self.create_subscription(Odometry, 'odom', self.on_odom, 10)\n"
-        "        self.timer = self.create_timer(0.1, self.tick)\n"
-        "    def on_odom(self, msg):\n"
-        "        self.seen = msg.header.stamp.sec * 10**9 + msg.header.stamp.nanosec\n"
-        "    def tick(self):\n"
-        "        self.records.append([self.get_clock().now().nanoseconds, self.seen])\n"
-    )
-    with judged_kernel(reader) as kernel:
+    with judged_kernel(READER) as kernel:
         assert kernel.call("start", "Reader", {}, True)["name"] == "reader"
         run = Following(session, kernel, "judge_odom", until=0.2, gate="/odom")
         odom = run.node.create_publisher(Odometry, "/odom", 10)
@@ -239,6 +242,72 @@ def test_a_gated_time_moves_on_in_the_kernel_once_the_reading_stamped_with_it_is
             if session.spin_until(acked_step, run.node, timeout=0.2):
                 break
         assert acked_step(), "timeout: the kernel did not ack t = 0.1 s after its odom"
+        assert run.finish() == [{"timeout": False}]
+        records = kernel.call("spin_until_length", "records", 1, 10.0)
+        assert records[0] == [step, step], records
+
+
+def test_the_judges_drive_is_the_kernels_own_simulation_to_the_bit(session: Session) -> None:
+    """Lab 5's judge runs the simulator and the kernel the student's node, a round trip
+    per tick (the reading carries the time); a student's own run has both in one
+    process (``Simulation``). The robot's path is the same to the bit: the node sees
+    each reading before its timer at that time, in both."""
+    import math
+
+    import nbformat
+    import numpy as np
+
+    from autograder import judge_lab05
+    from rosbook.labs import lab05
+    from rosbook.sim.physics import World
+
+    cells = nbformat.read(notebook_path("lab05_diff_drive", released=False), as_version=4).cells
+    code = strip_markers(
+        "\n".join(c.source for c in cells if grade_id(c) in ("setup", "go_to_pose"))
+    )
+    goal = (1.5, 1.0, math.pi / 2)
+    world = World(arena=(-1.0, -1.0, 2.5, 2.0))
+    finish = lab05.Finish(goal[:2], 0.05, still=1.1)
+    own: dict[str, Any] = {}
+    exec(code, own)  # noqa: S102 - the course's own solution
+    mine = lab05.drive(
+        own["GoToPose"],
+        world=world,
+        seconds=25.0,
+        finish=finish,
+        parameter_overrides=[own["Parameter"]("goal", value=list(goal))],
+    )
+    with judged_kernel(code) as kernel:
+        judged = judge_lab05.drive(
+            judge.Judgement(kernel, Path(".")),
+            "GoToPose",
+            world=world,
+            seconds=25.0,
+            finish=finish,
+            name="go_to_pose",
+            goal=goal,
+        )
+    assert judged.seconds == mine.seconds
+    assert np.array_equal(judged.path, mine.path)
+
+
+def test_a_gated_reading_alone_carries_its_time_into_the_kernel(session: Session) -> None:
+    """With the gate, the judge sends a step's odom only: once the node has taken it, its
+    /clock reads the reading's stamp and its timer then acts on that reading."""
+    from nav_msgs.msg import Odometry
+
+    with judged_kernel(READER) as kernel:
+        assert kernel.call("start", "Reader", {}, True)["name"] == "reader"
+        run = Following(session, kernel, "judge_odom", until=0.2, gate="/odom")
+        odom = run.node.create_publisher(Odometry, "/odom", 10)
+        assert session.spin_until(lambda: odom.get_subscription_count() > 0, run.node, timeout=60)
+        step = 100_000_000
+        msg = Odometry()
+        msg.header.stamp.nanosec = step
+        odom.publish(msg)  # reliable: it arrives
+        assert session.spin_until(lambda: run.acked[-1]["now"] >= step, run.node, timeout=60), (
+            "timeout: the kernel did not move to the time of the odom it took"
+        )
         assert run.finish() == [{"timeout": False}]
         records = kernel.call("spin_until_length", "records", 1, 10.0)
         assert records[0] == [step, step], records
