@@ -10,7 +10,7 @@ Targets, all measured in one run so that the machine's speed cancels out:
 
 ``simulator share of raw physics rclpy message conversions leave`` says how high
 that share could go at best: the physics of a tick over the physics plus the CPU time
-rclpy takes to turn that tick's messages into Python objects.
+rclpy takes to turn the controller's messages of that tick into Python objects and back.
 
 CPU seconds make the ratio fair on a shared machine: wall-clock factors move with the
 load of other processes, the CPU time this process needs does not.
@@ -71,14 +71,15 @@ class Wanderer(Node):
         self.cmd_pub.publish(cmd)
 
 
-def real_time_factor() -> tuple[float, float, float, float]:
+def real_time_factor() -> tuple[float, float, float, float, float]:
     """Medians over three rounds: the factor of SIM_SECONDS with the wanderer in the loop
-    (wall, CPU), then raw physics steps per second (wall, CPU).
+    (wall, CPU), raw physics steps per second (wall, CPU), and the share of the raw
+    physics rclpy's message conversions leave (``tick_messages_cpu``).
 
     The CPU-time factor is what the machine could do alone; the wall-clock factor is
     what it did while shared (the grading machine's two cores usually are). Each round
-    measures both, so their ratio is taken at the same moment of a machine whose speed
-    drifts (by 2x within a minute on a shared one).
+    measures all of them, so their ratios are taken at the same moment of a machine whose
+    speed drifts (by 2x within a minute on a shared one).
     """
     rounds = []
     for _ in range(3):
@@ -87,7 +88,10 @@ def real_time_factor() -> tuple[float, float, float, float]:
         started, started_cpu = time.perf_counter(), time.process_time()
         sim.run(SIM_SECONDS)
         wall, cpu = time.perf_counter() - started, time.process_time() - started_cpu
-        rounds.append((SIM_SECONDS / wall, SIM_SECONDS / cpu, *physics_steps_per_second()))
+        steps, cpu_steps = physics_steps_per_second()
+        physics_per_tick = (TICK_S / sim.physics.dt) / cpu_steps  # CPU seconds
+        best_share = physics_per_tick / (physics_per_tick + tick_messages_cpu())
+        rounds.append((SIM_SECONDS / wall, SIM_SECONDS / cpu, steps, cpu_steps, best_share))
     ros.reset()
     return tuple(statistics.median(column) for column in zip(*rounds))  # type: ignore[return-value]
 
@@ -103,16 +107,19 @@ def physics_steps_per_second() -> tuple[float, float]:
 
 
 def tick_messages_cpu() -> float:
-    """CPU seconds rclpy needs to hand one tick's messages to Python: the controller's
-    ``odom`` and ``/clock``, and the simulator's ``cmd_vel`` (``deserialize_message``:
-    what every take costs, the transport aside). No loop with a Python controller can
-    spend less per tick, whatever the simulator does."""
-    messages = [(serialize_message(t()), t) for t in (Odometry, Clock, Twist)]
+    """CPU seconds rclpy needs for one tick's messages as Python objects: the controller
+    takes ``odom`` and ``/clock`` (``deserialize_message``) and sends ``cmd_vel``
+    (``serialize_message``), the transport aside; the simulator's own messages travel
+    serialized. No loop with a Python controller can spend less per tick, whatever the
+    simulator does."""
+    taken = [(serialize_message(t()), t) for t in (Odometry, Clock)]
+    sent = Twist()
     rounds = 2_000
     started = time.process_time()
     for _ in range(rounds):
-        for data, kind in messages:
+        for data, kind in taken:
             deserialize_message(data, kind)
+        serialize_message(sent)
     return (time.process_time() - started) / rounds
 
 
@@ -144,13 +151,10 @@ def grade_one_submission() -> tuple[float, float]:
 
 def run() -> list[Figure]:
     with isolated_environ():
-        factor, cpu_factor, steps, cpu_steps = real_time_factor()
+        factor, cpu_factor, steps, cpu_steps, best_share = real_time_factor()
         ros.shutdown()
     grading_wall, grading_cpu = grade_one_submission()
-    dt = DiffDriveSim(World()).dt
-    raw_cpu_factor = cpu_steps * dt
-    physics_per_tick = (TICK_S / dt) / cpu_steps  # CPU seconds of physics in a tick
-    best_share = physics_per_tick / (physics_per_tick + tick_messages_cpu())
+    raw_cpu_factor = cpu_steps * DiffDriveSim(World()).dt
     return [
         Figure("simulator real-time factor", factor, "x"),
         Figure("simulator real-time factor per CPU second", cpu_factor, "x"),
