@@ -651,15 +651,14 @@ def judge_one(request: dict[str, Any], kernels: dict[str, Kernel]) -> Verdict:
     kernel = kernels.get(request["connection_file"])
     if kernel is None:
         kernel = kernels[request["connection_file"]] = Kernel(request["connection_file"])
-    judgement = Judgement(kernel, Path(request["folder"]), request.get("sandbox_pid"))
-    shown = judgement.outputs
+    j = Judgement(kernel, Path(request["folder"]), request.get("sandbox_pid"))
     try:
-        check(judgement)
-        return Verdict(grade_id, True, outputs=shown)
+        check(j)
+        return Verdict(grade_id, True, outputs=j.outputs)
     except (JudgeTimeout, StillRunning) as exc:
-        return Verdict(grade_id, False, f"timeout: {exc}", timeout=True, outputs=shown)
+        return Verdict(grade_id, False, f"timeout: {exc}", timeout=True, outputs=j.outputs)
     except AssertionError as exc:
-        return Verdict(grade_id, False, str(exc), outputs=shown)
+        return Verdict(grade_id, False, str(exc), outputs=j.outputs)
     except Exception:  # the judge's own failure: say so, never pass
         tail = "\n".join(traceback.format_exc().strip().splitlines()[-4:])
         return Verdict(grade_id, False, f"the judge failed on this check:\n{tail}", broken=True)
