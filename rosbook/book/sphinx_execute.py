@@ -1,0 +1,85 @@
+"""Sphinx extension: the chapters execute side by side, each in a ROS domain of its own.
+
+myst-nb (``execute_notebooks: cache``) executes a chapter while Sphinx reads it, and
+jupyter-book's CLI has Sphinx read one chapter at a time. A chapter's cells mostly wait
+on ROS (discovery, timers, processes starting), so a build used less than one core of
+two. This extension has Sphinx read in parallel processes, as ``sphinx-build -j N``
+does, and gives each chapter's kernel a ROS domain of its own: chapters executing at
+once never hear each other, and ``ros2 node list`` in a chapter shows that chapter's
+nodes only. Pages are still written one at a time (the 3D scenes' stills share one
+browser: ``sphinx_meshcat`` is not safe for parallel writing).
+
+Enable it in ``_config.yml``: ``sphinx: extra_extensions: [rosbook.book.sphinx_execute]``;
+``sphinx: config: rosbook_execution_jobs: N`` sets how many chapters execute at once
+(default: one more than the machine has cores, at least 2; 1 reads serially).
+"""
+
+from __future__ import annotations
+
+import os
+from typing import Any
+
+from jupyter_cache import get_cache
+from sphinx.application import Sphinx
+from sphinx.environment import BuildEnvironment
+
+from rosbook.runtime.isolation import DomainReservation, reserve_domain
+
+#: The domain of the chapter this process reads now (held until its next chapter).
+_held: list[DomainReservation] = []
+
+
+def execution_jobs(app: Sphinx) -> int:
+    """How many chapters execute at once."""
+    configured = int(app.config.rosbook_execution_jobs or 0)
+    return configured if configured > 0 else max(2, (os.cpu_count() or 1) + 1)
+
+
+#: Extensions jupyter-book loads that do not say whether they are safe for parallel
+#: reading, which they are: sphinx-multitoc-numbering only replaces how section numbers
+#: are assigned, which Sphinx does in the main process once every chapter is read;
+#: sphinx-jupyterbook-latex's transforms change one chapter's tree each, and act for
+#: LaTeX builds only.
+READ_SAFE = ("sphinx_multitoc_numbering", "sphinx_jupyterbook_latex")
+
+
+def read_in_parallel(app: Sphinx) -> None:
+    """Once myst-nb has set up: read with the jobs asked for, the cache made ahead."""
+    config = getattr(app.env, "mystnb_config", None)
+    if config is not None and config.execution_mode == "cache":
+        # jupyter-cache makes its folder and database when first used: by two readers
+        # at once, one fails ("File exists", "table already exists")
+        _ = get_cache(config.execution_cache_path).db
+    for name in READ_SAFE:
+        extension = app.extensions.get(name)
+        if extension is not None and extension.parallel_read_safe is None:
+            extension.parallel_read_safe = True
+    app.rosbook_write_jobs = app.parallel  # type: ignore[attr-defined]
+    app.parallel = max(app.parallel, execution_jobs(app))
+
+
+def write_as_asked(app: Sphinx, env: BuildEnvironment) -> None:
+    """Reading is over: writing gets the jobs the command asked for."""
+    app.parallel = app.rosbook_write_jobs  # type: ignore[attr-defined]
+
+
+def own_domain(app: Sphinx, docname: str, source: list[str]) -> None:
+    """Before a chapter is parsed (and so executed): a fresh ROS domain for its kernel.
+
+    Only the domain changes: the run's token (``RUN_MARKER``) stays, so the isolated
+    run that started the build still ends whatever a chapter left running."""
+    if "ROS_DOMAIN_ID" not in os.environ:  # not an isolated build: nothing to keep apart
+        return
+    reservation = reserve_domain()
+    for previous in _held:
+        previous.release()
+    _held[:] = [reservation]
+    os.environ["ROS_DOMAIN_ID"] = str(reservation.domain_id)
+
+
+def setup(app: Sphinx) -> dict[str, Any]:
+    app.add_config_value("rosbook_execution_jobs", 0, "", int)
+    app.connect("builder-inited", read_in_parallel, priority=600)  # after myst-nb's
+    app.connect("env-updated", write_as_asked)
+    app.connect("source-read", own_domain)
+    return {"version": "1.0", "parallel_read_safe": True, "parallel_write_safe": True}

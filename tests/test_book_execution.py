@@ -1,0 +1,78 @@
+"""The book's chapters execute side by side, each in a ROS domain of its own
+(``rosbook.book.sphinx_execute``), on a small real Sphinx project with myst-nb."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import nbformat
+import pytest
+from nbformat.v4 import new_code_cell, new_markdown_cell, new_notebook
+
+#: A Sphinx build with kernels: out of `make test-fast`.
+pytestmark = pytest.mark.slow
+
+CHAPTERS = ["a", "b", "c", "d", "e", "f"]  # Sphinx reads more than 5 in parallel only
+
+#: Chapter ``me`` says it runs, then waits for chapter ``other`` to say so: both end only
+#: if they execute at the same time. The wait is a hang guard (it says what did not happen).
+MEET = """
+import os, pathlib, time
+folder = pathlib.Path({folder!r})
+(folder / "domain-{me}").write_text(os.environ.get("ROS_DOMAIN_ID", "none"))
+(folder / "running-{me}").touch()
+give_up = time.monotonic() + 120
+while not (folder / "running-{other}").exists():
+    assert time.monotonic() < give_up, "timeout: chapter {other} did not run while {me} ran"
+    time.sleep(0.05)
+"""
+NOTE = """
+import os, pathlib
+pathlib.Path({folder!r}, "domain-{me}").write_text(os.environ.get("ROS_DOMAIN_ID", "none"))
+"""
+
+
+def project(tmp_path: Path) -> Path:
+    source, seen = tmp_path / "src", tmp_path / "seen"
+    source.mkdir()
+    seen.mkdir()
+    (source / "conf.py").write_text(
+        'extensions = ["myst_nb", "rosbook.book.sphinx_execute"]\n'
+        'nb_execution_mode = "cache"\n'
+        "nb_execution_timeout = 300\n"
+        "nb_execution_raise_on_error = True\n"
+        "rosbook_execution_jobs = 2\n"  # two processes: a, b, c in one; d, e, f in the other
+    )
+    toc = "\n".join(f"   {name}" for name in CHAPTERS)
+    (source / "index.rst").write_text(f"Book\n====\n\n.. toctree::\n\n{toc}\n")
+    pairs = {"a": "d", "d": "a"}
+    for name in CHAPTERS:
+        code = (MEET if name in pairs else NOTE).format(
+            folder=str(seen), me=name, other=pairs.get(name)
+        )
+        notebook = new_notebook(cells=[new_markdown_cell(f"# Chapter {name}"), new_code_cell(code)])
+        notebook.metadata["kernelspec"] = {"name": "python3", "display_name": "Python 3"}
+        nbformat.write(notebook, source / f"{name}.ipynb")
+    return source
+
+
+def test_chapters_execute_side_by_side_each_in_a_domain_of_its_own(tmp_path: Path) -> None:
+    source = project(tmp_path)
+    done = subprocess.run(
+        [sys.executable, "-m", "sphinx", "-W", "-b", "html", str(source), str(tmp_path / "html")],
+        capture_output=True,
+        text=True,
+        timeout=900,
+        check=False,
+    )
+    assert done.returncode == 0, (done.stdout + done.stderr)[-3000:]
+    domains = {name: (tmp_path / "seen" / f"domain-{name}").read_text() for name in CHAPTERS}
+    build_domain = os.environ["ROS_DOMAIN_ID"]  # the test run is isolated (conftest)
+    assert build_domain not in domains.values(), f"a chapter ran in the build's domain: {domains}"
+    assert domains["a"] != domains["d"], f"chapters running at once share a domain: {domains}"
+    for first, second in zip(CHAPTERS, CHAPTERS[1:]):  # one process reads these in turn
+        if {first, second} != {"c", "d"}:
+            assert domains[first] != domains[second], domains
