@@ -172,7 +172,22 @@ class RecordingCountdown(CountdownServer):
         return result
 
 
-def test_interrupting_run_goal_cancels_the_goal_before_the_interrupt_goes_on(session) -> None:
+def converted_interrupt() -> BaseException:
+    """Ctrl-C while rclpy's C++ code turns a message into Python: pybind11 raises this."""
+    try:
+        raise KeyboardInterrupt
+    except KeyboardInterrupt as exc:
+        error = TypeError("Unable to convert function return value to a Python type!")
+        error.__cause__ = exc
+        return error
+
+
+@pytest.mark.parametrize(
+    "interrupt", [KeyboardInterrupt, converted_interrupt], ids=["plain", "converted"]
+)
+def test_interrupting_run_goal_cancels_the_goal_before_the_interrupt_goes_on(
+    session, interrupt
+) -> None:
     server = RecordingCountdown()
     server.set_parameters([Parameter("rate_hz", value=20.0)])
     seen: list[int] = []
@@ -182,7 +197,7 @@ def test_interrupting_run_goal_cancels_the_goal_before_the_interrupt_goes_on(ses
         def check() -> bool:
             if len(seen) >= 2 and not interrupted:
                 interrupted.append(True)
-                raise KeyboardInterrupt  # as Ctrl-C would, in the middle of the wait
+                raise interrupt()  # as Ctrl-C would, in the middle of the wait
             return condition()
 
         return session.spin_until(check, timeout=timeout)

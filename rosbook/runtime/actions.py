@@ -96,6 +96,18 @@ class GoalRun:
         return STATUS.get(self.status, str(self.status))
 
 
+def interrupted(exc: BaseException) -> bool:
+    """Whether ``exc`` is Ctrl-C: a ``KeyboardInterrupt``, also one that landed while
+    rclpy's C++ code turned a message into Python, where pybind11 raises a ``TypeError``
+    ("Unable to convert function return value") caused by it."""
+    seen: BaseException | None = exc
+    while seen is not None:
+        if isinstance(seen, KeyboardInterrupt):
+            return True
+        seen = seen.__cause__ or seen.__context__
+    return False
+
+
 def run_goal(
     node: Node,
     action_type: type,
@@ -118,7 +130,8 @@ def run_goal(
     subscription: feedback sent before that is lost).
     Interrupted (Ctrl-C, a notebook's stop button) while the goal runs, it requests the
     goal's cancellation before the ``KeyboardInterrupt`` goes on, as ``ros2 action
-    send_goal`` does.
+    send_goal`` does (``interrupted``: also when the interrupt came out of rclpy as
+    another error).
     ``spin(condition, timeout)`` moves the world on while waiting (default: spin the
     node, with the whole session when it is a session node); pass one that advances a
     simulated clock to run a server on simulated time.
@@ -165,11 +178,15 @@ def run_goal(
                 if not result.done():
                     cancel()
             spin(result.done, timeout)
-        except KeyboardInterrupt:  # Ctrl-C, or a notebook cell interrupted: stop the goal
+        except BaseException as exc:  # Ctrl-C, or a notebook cell interrupted: stop the goal
+            if not interrupted(exc):
+                raise
             if not result.done() and run.cancel_sent_at is None:
                 canceling = cancel()
                 spin(canceling.done, 2.0)
-            raise
+            if isinstance(exc, KeyboardInterrupt):
+                raise
+            raise KeyboardInterrupt from exc
         if result.done():
             run.end_time = now()
             run.status = result.result().status
