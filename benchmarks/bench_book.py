@@ -1,5 +1,8 @@
 """The whole book built from scratch (every cell of every chapter executed), then read.
 
+Built twice in the same run: as ``make book`` builds it (chapters executing side by side,
+``rosbook.book.sphinx_execute``) and one chapter at a time, and the ratio of the two.
+
 Opened in headless Chromium over http on loopback, as a static host serves it (text
 gzip-compressed): the bytes the first page and the heaviest page transfer (targets:
 first page <= 1.2 MB, a page with 3D scenes <= 2 MB), and the time until a 3D scene
@@ -8,6 +11,7 @@ has drawn its first frame, next to the time the same page took to load.
 
 from __future__ import annotations
 
+import os
 import tempfile
 import time
 from pathlib import Path
@@ -16,16 +20,37 @@ from benchmarks import Figure
 from rosbook.book import pages as bookpages
 from rosbook.book.chromium import chromium_path, launch
 from rosbook.book.site import scene_ids, serve, visit, wait_for_first_frame
+from rosbook.book.sphinx_execute import JOBS_VARIABLE
 
 FIRST_PAGE = "book/intro.html"
 MB = 1e6
 
 
+def timed_build(out: Path, jobs: str | None = None) -> tuple[Path, float]:
+    """The book built from scratch into ``out`` (``jobs`` chapters executing at once,
+    default as ``make book``), and the seconds it took."""
+    saved = os.environ.get(JOBS_VARIABLE)
+    if jobs is not None:
+        os.environ[JOBS_VARIABLE] = jobs
+    try:
+        start = time.monotonic()
+        html = bookpages.build(out)
+        return html, time.monotonic() - start
+    finally:
+        os.environ.pop(JOBS_VARIABLE, None)
+        if saved is not None:
+            os.environ[JOBS_VARIABLE] = saved
+
+
 def run() -> list[Figure]:
     with tempfile.TemporaryDirectory(prefix="bench-book-") as tmp:
-        start = time.monotonic()
-        html = bookpages.build(Path(tmp))
-        figures = [Figure("book full build", time.monotonic() - start, "s")]
+        _, serial = timed_build(Path(tmp) / "serial", jobs="1")
+        html, seconds = timed_build(Path(tmp) / "book")
+        figures = [
+            Figure("book full build", seconds, "s"),
+            Figure("book full build, one chapter executing at a time", serial, "s"),
+            Figure("book full build speed-up, chapters side by side", serial / seconds, "x"),
+        ]
         path = chromium_path()
         if path is None:
             print("   NO CHROMIUM: page weights and first-frame times not measured")

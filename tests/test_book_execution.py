@@ -12,6 +12,8 @@ import nbformat
 import pytest
 from nbformat.v4 import new_code_cell, new_markdown_cell, new_notebook
 
+from rosbook.book.sphinx_execute import JOBS_VARIABLE
+
 #: A Sphinx build with kernels: out of `make test-fast`.
 pytestmark = pytest.mark.slow
 
@@ -44,7 +46,6 @@ def project(tmp_path: Path) -> Path:
         'nb_execution_mode = "cache"\n'
         "nb_execution_timeout = 300\n"
         "nb_execution_raise_on_error = True\n"
-        "rosbook_execution_jobs = 2\n"  # two processes: a, b, c in one; d, e, f in the other
     )
     toc = "\n".join(f"   {name}" for name in CHAPTERS)
     (source / "index.rst").write_text(f"Book\n====\n\n.. toctree::\n\n{toc}\n")
@@ -63,6 +64,7 @@ def test_chapters_execute_side_by_side_each_in_a_domain_of_its_own(tmp_path: Pat
     source = project(tmp_path)
     done = subprocess.run(
         [sys.executable, "-m", "sphinx", "-W", "-b", "html", str(source), str(tmp_path / "html")],
+        env={**os.environ, JOBS_VARIABLE: "2"},  # two readers: a, b, c in one; d, e, f in the other
         capture_output=True,
         text=True,
         timeout=900,

@@ -9,9 +9,9 @@ once never hear each other, and ``ros2 node list`` in a chapter shows that chapt
 nodes only. Pages are still written one at a time (the 3D scenes' stills share one
 browser: ``sphinx_meshcat`` is not safe for parallel writing).
 
-Enable it in ``_config.yml``: ``sphinx: extra_extensions: [rosbook.book.sphinx_execute]``;
-``sphinx: config: rosbook_execution_jobs: N`` sets how many chapters execute at once
-(default: one more than the machine has cores, at least 2; 1 reads serially).
+Enable it in ``_config.yml``: ``sphinx: extra_extensions: [rosbook.book.sphinx_execute]``.
+``ROSBOOK_EXECUTION_JOBS=N make book`` sets how many chapters execute at once (default:
+one more than the machine has cores; 1 executes them one at a time).
 """
 
 from __future__ import annotations
@@ -29,10 +29,18 @@ from rosbook.runtime.isolation import DomainReservation, reserve_domain
 _held: list[DomainReservation] = []
 
 
-def execution_jobs(app: Sphinx) -> int:
+#: The variable that sets how many chapters execute at once.
+JOBS_VARIABLE = "ROSBOOK_EXECUTION_JOBS"
+
+
+def execution_jobs() -> int:
     """How many chapters execute at once."""
-    configured = int(app.config.rosbook_execution_jobs or 0)
-    return configured if configured > 0 else max(2, (os.cpu_count() or 1) + 1)
+    configured = os.environ.get(JOBS_VARIABLE, "")
+    if configured:
+        if not configured.isdigit() or int(configured) < 1:
+            raise ValueError(f"{JOBS_VARIABLE} must be a whole number from 1, not {configured!r}")
+        return int(configured)
+    return (os.cpu_count() or 1) + 1
 
 
 #: Extensions jupyter-book loads that do not say whether they are safe for parallel
@@ -55,7 +63,7 @@ def read_in_parallel(app: Sphinx) -> None:
         if extension is not None and extension.parallel_read_safe is None:
             extension.parallel_read_safe = True
     app.rosbook_write_jobs = app.parallel  # type: ignore[attr-defined]
-    app.parallel = max(app.parallel, execution_jobs(app))
+    app.parallel = max(app.parallel, execution_jobs())
 
 
 def write_as_asked(app: Sphinx, env: BuildEnvironment) -> None:
@@ -68,8 +76,6 @@ def own_domain(app: Sphinx, docname: str, source: list[str]) -> None:
 
     Only the domain changes: the run's token (``RUN_MARKER``) stays, so the isolated
     run that started the build still ends whatever a chapter left running."""
-    if "ROS_DOMAIN_ID" not in os.environ:  # not an isolated build: nothing to keep apart
-        return
     reservation = reserve_domain()
     for previous in _held:
         previous.release()
@@ -78,7 +84,6 @@ def own_domain(app: Sphinx, docname: str, source: list[str]) -> None:
 
 
 def setup(app: Sphinx) -> dict[str, Any]:
-    app.add_config_value("rosbook_execution_jobs", 0, "", int)
     app.connect("builder-inited", read_in_parallel, priority=600)  # after myst-nb's
     app.connect("env-updated", write_as_asked)
     app.connect("source-read", own_domain)
