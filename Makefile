@@ -23,20 +23,23 @@ $(STAMP): requirements.txt pyproject.toml
 book: $(STAMP)
 	$(ISOLATED) $(BIN)/jupyter-book build --all -W -n --keep-going .
 
-## test: the whole test suite (library, labs round trip, grader, book build)
+## test: the whole test suite (library, labs round trip, grader, book build), in
+## TEST_WORKERS parallel workers (default: one per CPU; tests/conftest.py groups them)
+TEST_WORKERS ?= logical
+PARALLEL := -n $(TEST_WORKERS) --dist loadfile --no-loadscope-reorder
 test: $(STAMP)
-	$(ISOLATED) $(BIN)/python -m pytest
+	$(ISOLATED) $(BIN)/python -m pytest $(PARALLEL)
 
 ## test-fast: the edit loop: library units and one lab round trip, no book build
 test-fast: $(STAMP)
-	$(ISOLATED) $(BIN)/python -m pytest -m "not slow"
+	$(ISOLATED) $(BIN)/python -m pytest $(PARALLEL) -m "not slow"
 
 ## stress: the book build and the whole test suite with the CPU oversubscribed by
 ## STRESS_PER_CORE busy processes per core; every chapter is executed again
 STRESS_PER_CORE ?= 2
 stress: $(STAMP)
 	ROSBOOK_BOOK_CACHE=fresh $(BIN)/python -m rosbook.runtime.stress --per-core $(STRESS_PER_CORE) -- \
-		$(ISOLATED) $(BIN)/python -m pytest
+		$(ISOLATED) $(BIN)/python -m pytest $(PARALLEL)
 
 ## lab: JupyterLab on the student labs, in a ROS domain of its own; its terminals have
 ## the venv's ros2 and colcon in the kernel's domain (LAB_DIR, LAB_ARGS: other folder, flags)

@@ -2,10 +2,11 @@
 
 from __future__ import annotations
 
+import fcntl
 import hashlib
 import os
 import shutil
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from pathlib import Path
 
 import pytest
@@ -31,10 +32,18 @@ SLOW_FIXTURES = {
 
 def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
     """A test that uses a slow fixture is marked slow: `make test-fast` leaves it out
-    without each such test having to say so."""
+    without each such test having to say so.
+
+    `make test` runs the test files in parallel workers (pytest-xdist, ``--dist
+    loadfile``: a file's tests in one worker, so its module fixtures, such as a graded
+    class, are made once). Files with slow tests come first, so that the last minutes
+    are not one worker grading a class while the other has nothing left: the quick
+    files fill the gaps."""
     for item in items:
         if SLOW_FIXTURES & set(getattr(item, "fixturenames", ())):
             item.add_marker(pytest.mark.slow)
+    slow = {item.path for item in items if item.get_closest_marker("slow")}
+    items.sort(key=lambda item: item.path not in slow)
 
 
 @pytest.fixture(scope="session", autouse=True)
@@ -87,17 +96,40 @@ def book_cache() -> Path | None:
     return folder
 
 
+def once_per_run(factory: pytest.TempPathFactory, name: str, make: Callable[[Path], None]) -> Path:
+    """The folder ``<run>/<name>`` filled by ``make(folder)`` once per test run, also when
+    pytest-xdist runs the tests in several workers: the first worker that needs it makes
+    it in the run's shared folder, the others wait on a lock and use it. A ``make`` that
+    raised is tried again by the next worker that needs it."""
+    shared = factory.getbasetemp()
+    if os.environ.get("PYTEST_XDIST_WORKER"):
+        shared = shared.parent  # the run's folder, above each worker's own
+    folder, made = shared / name, shared / f"{name}.made"
+    with open(shared / f"{name}.lock", "a") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)  # released when the file closes
+        if not made.exists():
+            shutil.rmtree(folder, ignore_errors=True)
+            folder.mkdir()
+            make(folder)
+            made.touch()
+    return folder
+
+
 @pytest.fixture(scope="session")
 def built_book(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    """The whole book built once per test run, as `make book` builds it, in a ROS domain
-    of its own. Returns `_build/html`. Chapters whose code and inputs are unchanged since
-    an earlier run take their outputs from the kept cache (``book_cache``)."""
-    out = tmp_path_factory.mktemp("book")
-    cache = book_cache()
-    if cache is not None:
-        (out / "_build").mkdir()
-        (out / "_build" / ".jupyter_cache").symlink_to(cache, target_is_directory=True)
-    return bookpages.build(out)
+    """The whole book built once per test run (``once_per_run``), as `make book` builds
+    it, in a ROS domain of its own. Returns `_build/html`. Chapters whose code and inputs
+    are unchanged since an earlier run take their outputs from the kept cache
+    (``book_cache``)."""
+
+    def build(out: Path) -> None:
+        cache = book_cache()
+        if cache is not None:
+            (out / "_build").mkdir()
+            (out / "_build" / ".jupyter_cache").symlink_to(cache, target_is_directory=True)
+        bookpages.build(out)
+
+    return once_per_run(tmp_path_factory, "book", build) / "_build" / "html"
 
 
 @pytest.fixture(scope="session")

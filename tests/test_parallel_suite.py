@@ -1,0 +1,105 @@
+"""`make test` runs the suite in parallel workers (pytest-xdist, tests/conftest.py): a
+file's tests in one worker, files with slow tests first, the book built once."""
+
+from __future__ import annotations
+
+import os
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+from rosbook.book.pages import ROOT
+
+#: The Makefile's pytest-xdist options (``PARALLEL``), read from the Makefile itself.
+PARALLEL = re.search(r"^PARALLEL := (.+)$", (ROOT / "Makefile").read_text(), re.M)
+
+#: Two test files that need one thing made once per run; each waits until the other
+#: runs, so they pass only when the two workers run them at the same time.
+CONFTEST = """
+import os, time
+from pathlib import Path
+import pytest
+from tests.conftest import once_per_run
+
+@pytest.fixture(scope="session")
+def met(tmp_path_factory):
+    shared = tmp_path_factory.getbasetemp().parent
+    me = os.environ["PYTEST_XDIST_WORKER"]
+    (shared / f"running-{me}").touch()
+    give_up = time.monotonic() + 120
+    while len(list(shared.glob("running-*"))) < 2:
+        assert time.monotonic() < give_up, "timeout: the other worker never ran"
+        time.sleep(0.05)
+
+@pytest.fixture(scope="session")
+def made(tmp_path_factory):
+    def make(folder):
+        with open(os.environ["MADE_LOG"], "a") as log:
+            log.write(os.environ["PYTEST_XDIST_WORKER"] + "\\n")
+        time.sleep(0.5)  # the other worker asks meanwhile: it must wait, not make it again
+        (folder / "thing").write_text("made")
+    return once_per_run(tmp_path_factory, "thing", make)
+"""
+TEST = """
+def test_{name}(met, made):
+    assert (made / "thing").read_text() == "made"
+"""
+
+
+def test_two_workers_make_a_shared_thing_once(tmp_path: Path) -> None:
+    assert PARALLEL is not None, "the Makefile's PARALLEL options"
+    suite = tmp_path / "suite"
+    suite.mkdir()
+    (suite / "conftest.py").write_text(CONFTEST)
+    for name in ("a", "b"):
+        (suite / f"test_{name}.py").write_text(TEST.format(name=name))
+    log = tmp_path / "made.log"
+    options = PARALLEL.group(1).replace("$(TEST_WORKERS)", "2").split()
+    done = subprocess.run(
+        [sys.executable, "-m", "pytest", "-p", "no:cacheprovider", *options, str(suite)],
+        cwd=suite,
+        env={**os.environ, "PYTHONPATH": str(ROOT), "MADE_LOG": str(log)},
+        capture_output=True,
+        text=True,
+        timeout=300,
+        check=False,
+    )
+    assert done.returncode == 0, done.stdout[-3000:] + done.stderr[-2000:]
+    assert "2 passed" in done.stdout
+    assert len(log.read_text().split()) == 1, f"made by more than one worker: {log.read_text()}"
+
+
+def test_files_with_slow_tests_are_handed_out_first() -> None:
+    done = subprocess.run(
+        [sys.executable, "-m", "pytest", "-p", "no:cacheprovider", "--collect-only", "-q"],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        timeout=300,
+        check=False,
+    )
+    assert done.returncode == 0, done.stdout[-3000:]
+    files = list(
+        dict.fromkeys(line.split("::")[0] for line in done.stdout.splitlines() if "::" in line)
+    )
+    slow = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "pytest",
+            "-p",
+            "no:cacheprovider",
+            "--collect-only",
+            "-q",
+            "-m",
+            "slow",
+        ],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        timeout=300,
+        check=False,
+    )
+    with_slow = {line.split("::")[0] for line in slow.stdout.splitlines() if "::" in line}
+    assert with_slow and set(files[: len(with_slow)]) == with_slow, files
