@@ -16,10 +16,14 @@ one more than the machine has cores; 1 executes them one at a time).
 
 from __future__ import annotations
 
+import fcntl
+import functools
 import os
+from collections.abc import Callable
 from typing import Any
 
 from jupyter_cache import get_cache
+from jupyter_cache.cache.main import JupyterCacheBase
 from sphinx.application import Sphinx
 from sphinx.environment import BuildEnvironment
 
@@ -51,6 +55,22 @@ def execution_jobs() -> int:
 READ_SAFE = ("sphinx_multitoc_numbering", "sphinx_jupyterbook_latex")
 
 
+def serialized(write: Callable[..., Any]) -> Callable[..., Any]:
+    """jupyter-cache's ``write`` made one at a time across processes (a lock file in the
+    cache): adding a record, it deletes those beyond its limit, and one that another
+    reader added meanwhile, its notebook not yet written, counts as such ("Notebook file
+    does not exist for cache record")."""
+
+    @functools.wraps(write)
+    def locked(cache: JupyterCacheBase, *args: Any, **kwargs: Any) -> Any:
+        with open(cache.path / "rosbook-write.lock", "a") as lock:
+            fcntl.flock(lock, fcntl.LOCK_EX)  # released when the file closes
+            return write(cache, *args, **kwargs)
+
+    locked.rosbook_serialized = True  # type: ignore[attr-defined]
+    return locked
+
+
 def read_in_parallel(app: Sphinx) -> None:
     """Once myst-nb has set up: read with the jobs asked for, the cache made ahead."""
     config = getattr(app.env, "mystnb_config", None)
@@ -58,6 +78,10 @@ def read_in_parallel(app: Sphinx) -> None:
         # jupyter-cache makes its folder and database when first used: by two readers
         # at once, one fails ("File exists", "table already exists")
         _ = get_cache(config.execution_cache_path).db
+        for name in ("cache_notebook_bundle", "add_nb_to_project"):
+            write = getattr(JupyterCacheBase, name)
+            if not getattr(write, "rosbook_serialized", False):
+                setattr(JupyterCacheBase, name, serialized(write))
     for name in READ_SAFE:
         extension = app.extensions.get(name)
         if extension is not None and extension.parallel_read_safe is None:
