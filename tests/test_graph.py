@@ -14,6 +14,7 @@ from std_msgs.msg import Int64, String
 
 from rosbook.cli import private_node
 from rosbook.runtime import graph, interfaces
+from rosbook.runtime.isolation import reserve_domain
 from rosbook.runtime.session import Session
 from rosbook.viz.graph_svg import GraphEdges, collect, graph_svg, to_svg
 
@@ -155,6 +156,25 @@ def test_an_observer_that_started_slowly_waits_longer_for_discovery_to_be_quiet(
         assert graph.settle(observer)
         waited = time.monotonic() - called
     assert waited >= called - started, f"settled after {waited:.2f} s of quiet"
+
+
+def test_an_empty_graph_is_trusted_only_after_the_observer_waited_as_long_as_it_took_to_start(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """A cold ``ros2 graph`` on a loaded CI machine drew an empty graph beside a running
+    talker: its start-up had taken longer than the wait for a first node, so it trusted
+    silence at once. The wait for a first node counts from the observer's making, and
+    lasts at least as long as that took."""
+    with reserve_domain() as empty:
+        monkeypatch.setenv("ROS_DOMAIN_ID", str(empty.domain_id))
+        with private_node("_starved_observer") as observer:
+            started = time.monotonic() - 3.0  # as if rclpy.init and the node had taken 3 s
+            graph.discovering_since(observer, started)
+            made = time.monotonic()
+            assert graph.settle(observer)
+            waited = time.monotonic() - made
+            assert graph.node_names(observer) == []
+    assert waited >= 3.0, f"an empty graph trusted after {waited:.2f} s"
 
 
 def test_bad_inputs_raise_one_line_errors(system: dict[str, Any]) -> None:

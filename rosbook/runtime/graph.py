@@ -168,11 +168,18 @@ SETTLE_TIMEOUT_S = 20.0
 _SINCE: weakref.WeakKeyDictionary[Node, float] = weakref.WeakKeyDictionary()
 
 
+#: When each such observer was made (``discovering_since`` is called right after).
+_MADE: weakref.WeakKeyDictionary[Node, float] = weakref.WeakKeyDictionary()
+
+
 def discovering_since(node: Node, started: float) -> None:
     """Record that ``node``'s participant began discovery at ``started``
     (``time.monotonic()`` before ``rclpy.init``): ``settle`` then counts its waits
-    from there, not from its own call, so a command that just started waits less."""
+    from there, not from its own call, so a command that just started waits less.
+    Call it right after making ``node``: how long that took tells how busy the machine
+    is (see ``settle``)."""
     _SINCE[node] = started
+    _MADE[node] = time.monotonic()
 
 
 class _Watch:
@@ -184,9 +191,11 @@ class _Watch:
         self.first_seen: float | None = None
         self.settled_once = False
 
-    def settled(self, watcher: Node, *, start: float, at_least: float, quiet: float) -> bool:
+    def settled(
+        self, watcher: Node, *, start: float, at_least: float, quiet: float, made: float
+    ) -> bool:
         """Whether discovery has settled now (``settle``); ``start``: when the observer
-        began discovering."""
+        began discovering; ``made``: when it was made."""
         t = time.monotonic()
         shot = snapshot(watcher)
         if shot != self.last:
@@ -194,7 +203,10 @@ class _Watch:
         quiet_for = t - self.changed
         visible = any(not is_hidden(n) for n in self.last[0])  # type: ignore[attr-defined]
         if not visible and not self.settled_once:
-            done = t - start >= max(FIRST_NODE_WAIT_S, at_least) and quiet_for >= quiet
+            # an empty graph: trusted once the observer, made, has waited for the others'
+            # answers as long as its own making took (a starved machine answers late)
+            waited = max(FIRST_NODE_WAIT_S, at_least, made - start)
+            done = t - made >= waited and quiet_for >= quiet
         else:
             if self.first_seen is None:  # how long the others took to answer us
                 self.first_seen = 0.0 if self.settled_once else t - start  # (not a newcomer)
@@ -215,9 +227,11 @@ def keep_watching(node: Node) -> Callable[[], bool]:
     call or by the returned function, which looks at the graph now and says whether it
     has settled (call it while idle)."""
     called = time.monotonic()
-    start = _SINCE.get(node, called)
+    start, made = _SINCE.get(node, called), _MADE.get(node, called)
     watch = _WATCHES.setdefault(node, _Watch(snapshot(node), called))
-    return lambda: watch.settled(node, start=start, at_least=ANNOUNCE_PERIOD_S, quiet=QUIET_S)
+    return lambda: watch.settled(
+        node, start=start, at_least=ANNOUNCE_PERIOD_S, quiet=QUIET_S, made=made
+    )
 
 
 def settle(
@@ -239,21 +253,23 @@ def settle(
     deliver the others' endpoints in slow pieces as well): the graph settles fast where
     answers come fast and waits longer where they come late.
     While no visible node is known, "nothing new" proves little (the first
-    announcements may still be under way), so an empty graph is only trusted after
-    ``FIRST_NODE_WAIT_S``. ``at_least`` and that wait count from ``discovering_since``
-    when the observer's start was recorded (a command's own start-up counts), else
-    from this call. An observer that ``keep_watching`` follows counts its quiet period
-    from the last change it saw, and the first node's delay from when it began.
+    announcements may still be under way), so an empty graph is only trusted
+    ``FIRST_NODE_WAIT_S`` after the observer was made, and no sooner than its making
+    took (a command starved while it started will hear the others late as well).
+    ``at_least`` counts from ``discovering_since`` when the observer's start was
+    recorded (a command's own start-up counts), else from this call. An observer that
+    ``keep_watching`` follows counts its quiet period from the last change it saw, and
+    the first node's delay from when it began.
     """
     watcher = observer(node)
     called = time.monotonic()
-    start = _SINCE.get(watcher, called)
+    start, made = _SINCE.get(watcher, called), _MADE.get(watcher, called)
     watch = _WATCHES.get(watcher) or _Watch(snapshot(watcher), called)
 
     def settled() -> bool:
         if until is not None and until():
             return True
-        return watch.settled(watcher, start=start, at_least=at_least, quiet=quiet)
+        return watch.settled(watcher, start=start, at_least=at_least, quiet=quiet, made=made)
 
     return _spin_until(watcher, settled, timeout)
 
