@@ -23,9 +23,10 @@ $(STAMP): requirements.txt pyproject.toml
 book: $(STAMP)
 	$(ISOLATED) $(BIN)/jupyter-book build --all -W -n --keep-going .
 
-## test: the whole test suite (library, labs round trip, grader, book build), in
-## TEST_WORKERS parallel workers (default: one per CPU; tests/conftest.py groups them)
-TEST_WORKERS ?= logical
+## test: the whole test suite (library, labs round trip, grader, book build); in
+## TEST_WORKERS parallel workers (e.g. 2, or logical: one per CPU; tests/conftest.py
+## groups them) when asked, in this process by default (0) until a parallel run is clean
+TEST_WORKERS ?= 0
 PARALLEL := -n $(TEST_WORKERS) --dist loadfile --no-loadscope-reorder
 test: $(STAMP)
 	$(ISOLATED) $(BIN)/python -m pytest $(PARALLEL)
