@@ -17,13 +17,14 @@ import os
 import queue
 import select
 import shutil
+import signal
 import subprocess
 import sys
 import tempfile
 import threading
 import time
 import uuid
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from concurrent.futures import ThreadPoolExecutor, as_completed
 from dataclasses import asdict, dataclass
 from pathlib import Path
@@ -401,6 +402,25 @@ class Task:
     digest: str  # the submission folder and the lab's source: unchanged means same grade
 
 
+@contextlib.contextmanager
+def ctrl_c_held() -> Iterator[None]:
+    """Ctrl-C (SIGINT) held back while the block runs, acted on after it: a row is never
+    half saved, nor saved and left out of the count "stopped: N of M graded". Only the
+    main thread can hold it (elsewhere the block just runs); an ignored Ctrl-C stays so."""
+    previous = signal.getsignal(signal.SIGINT)
+    if threading.current_thread() is not threading.main_thread() or not callable(previous):
+        yield
+        return
+    caught: list[object] = []
+    signal.signal(signal.SIGINT, lambda signum, frame: caught.append(frame))
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
+    if caught:
+        previous(signal.SIGINT, caught[0])
+
+
 class Interrupted(Exception):
     """The run was stopped (Ctrl-C, SIGTERM); every finished row is kept in OUT."""
 
@@ -597,8 +617,9 @@ def run_local(
         for future in as_completed(futures):
             graded = future.result()
             if graded is not None:
-                saved(graded, futures[future])
-                done += 1
+                with ctrl_c_held():  # the row is saved and counted, then Ctrl-C stops us
+                    saved(graded, futures[future])
+                    done += 1
     except BaseException as exc:  # Ctrl-C, or OUT could not be written: stop it all now
         stopping.set()
         pool.shutdown(wait=False, cancel_futures=True)
@@ -671,8 +692,9 @@ def run_dask(
                         f"({type(exc).__name__}); no score could be computed. Regrade it with "
                         f"--student {task.student_id} once the machines are healthy.",
                     )
-                saved(graded, task)
-                done += 1
+                with ctrl_c_held():  # the row is saved and counted, then Ctrl-C stops us
+                    saved(graded, task)
+                    done += 1
         except KeyboardInterrupt:
             client.cancel(list(futures))
             raise Interrupted(done, len(tasks)) from None
