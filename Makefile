@@ -25,7 +25,7 @@ book: $(STAMP)
 
 ## test: the whole test suite (library, labs round trip, grader, book build); in
 ## TEST_WORKERS parallel workers (e.g. 2, or logical: one per CPU; tests/conftest.py
-## groups them) when asked, in this process by default (0) until a parallel run is clean
+## groups them) when asked, in this process by default (0) until parallel runs are clean
 TEST_WORKERS ?= 0
 PARALLEL := -n $(TEST_WORKERS) --dist loadfile --no-loadscope-reorder
 test: $(STAMP)
