@@ -24,9 +24,9 @@ book: $(STAMP)
 	$(ISOLATED) $(BIN)/jupyter-book build --all -W -n --keep-going .
 
 ## test: the whole test suite (library, labs round trip, grader, book build); in
-## TEST_WORKERS parallel workers (e.g. 2, or logical: one per CPU; tests/conftest.py
-## groups them) when asked, in this process by default (0) until parallel runs are clean
-TEST_WORKERS ?= 0
+## TEST_WORKERS parallel workers (logical: one per CPU; 0: in this process; tests/conftest.py
+## groups them)
+TEST_WORKERS ?= 2
 PARALLEL := -n $(TEST_WORKERS) --dist loadfile --no-loadscope-reorder
 test: $(STAMP)
 	$(ISOLATED) $(BIN)/python -m pytest $(PARALLEL)
