@@ -1,4 +1,5 @@
-"""`make bench` always reports: a failing figure is recorded, the others still run."""
+"""`make bench` always reports: a failing figure is recorded, the others still run; the
+simulator's figures compare like with like."""
 
 from __future__ import annotations
 
@@ -9,6 +10,10 @@ import pytest
 
 import benchmarks
 from benchmarks.__main__ import main
+from benchmarks.bench_sim import TICK_S, Wanderer, record, replay
+from rosbook.runtime.session import ros
+from rosbook.sim.node import Simulation
+from rosbook.sim.physics import World
 
 FINE = """
 from benchmarks import Figure
@@ -64,3 +69,21 @@ def test_bench_rerun_replaces_a_topics_failure(extra_benchmarks: Path) -> None:
     main(["zz_broken"], output=extra_benchmarks)
     records = json.loads(extra_benchmarks.read_text())
     assert [r["name"] for r in records].count("zz_broken: failed") == 1
+
+
+def test_sim_bench_replays_the_same_run_without_ros() -> None:
+    """The share's reference is the simulation the loop ran (the same commands and lidar
+    sweeps, ending at the same pose), not another drive."""
+    try:
+        sim = Simulation(World(), tick=TICK_S)
+        Wanderer()
+        events = record(sim.physics)
+        sim.run(2.0)
+    finally:
+        ros.reset()
+    sweeps = [e for e in events if isinstance(e, int)]
+    assert len(sweeps) == 11  # 5 Hz: at t = 0, 0.2, ..., 2 s, each once
+    assert any(isinstance(e, tuple) and e[1] > 0 for e in events)  # it drove
+    assert replay(events, sim.physics) > 0
+    with pytest.raises(RuntimeError, match="the replay ended at"):
+        replay(sweeps, sim.physics)  # without its commands the robot stays where it started
