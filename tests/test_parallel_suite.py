@@ -10,6 +10,7 @@ import sys
 from pathlib import Path
 
 from rosbook.book.pages import ROOT
+from tests.conftest import LONGEST
 
 #: The Makefile's pytest-xdist options (``PARALLEL``), read from the Makefile itself.
 PARALLEL = re.search(r"^PARALLEL := (.+)$", (ROOT / "Makefile").read_text(), re.M)
@@ -70,36 +71,21 @@ def test_two_workers_make_a_shared_thing_once(tmp_path: Path) -> None:
     assert len(log.read_text().split()) == 1, f"made by more than one worker: {log.read_text()}"
 
 
-def test_files_with_slow_tests_are_handed_out_first() -> None:
+def collected_files(*options: str) -> list[str]:
+    """The suite's test files in the order pytest collects them (and xdist hands them out)."""
     done = subprocess.run(
-        [sys.executable, "-m", "pytest", "-p", "no:cacheprovider", "--collect-only", "-q"],
-        cwd=ROOT,
-        capture_output=True,
-        text=True,
-        timeout=300,
-        check=False,
-    )
+        [sys.executable, "-m", "pytest", "-p", "no:cacheprovider", "--collect-only", "-q",
+         *options],
+        cwd=ROOT, capture_output=True, text=True, timeout=300, check=False,
+    )  # fmt: skip
     assert done.returncode == 0, done.stdout[-3000:]
-    files = list(
-        dict.fromkeys(line.split("::")[0] for line in done.stdout.splitlines() if "::" in line)
-    )
-    slow = subprocess.run(
-        [
-            sys.executable,
-            "-m",
-            "pytest",
-            "-p",
-            "no:cacheprovider",
-            "--collect-only",
-            "-q",
-            "-m",
-            "slow",
-        ],
-        cwd=ROOT,
-        capture_output=True,
-        text=True,
-        timeout=300,
-        check=False,
-    )
-    with_slow = {line.split("::")[0] for line in slow.stdout.splitlines() if "::" in line}
+    return list(dict.fromkeys(ln.split("::")[0] for ln in done.stdout.splitlines() if "::" in ln))
+
+
+def test_files_with_slow_tests_are_handed_out_first_the_longest_first() -> None:
+    files = collected_files()
+    with_slow = set(collected_files("-m", "slow"))
     assert with_slow and set(files[: len(with_slow)]) == with_slow, files
+    longest = [f"tests/{name}" for name in LONGEST]
+    assert [f for f in files if f in longest] == [f for f in longest if f in files], files
+    assert files[0] == longest[0], files
