@@ -37,6 +37,7 @@ SLOW_FIXTURES = {
 LONGEST = (
     "test_trusted_grading.py",  # lab 1's class of attacks, about 300 s
     "test_lab05.py",  # a class with a submission whose drive hangs, about 290 s
+    "test_judge_process.py",  # mostly waits out the judge's guards: fills others' gaps
     "test_book_browser.py",  # builds the book for both book files unless test_book did
     "test_grading_runs.py",
     "test_hub.py",

@@ -374,6 +374,7 @@ STALLS = """
 """
 
 
+@pytest.mark.slow  # each waits out the judge's guard on a value: about 25 s
 @pytest.mark.parametrize(
     ("work", "verdict"),
     [
@@ -402,6 +403,7 @@ def test_a_value_not_handled_in_the_guard_is_waited_out_not_marked_wrong(
         assert re.search(verdict, said), said
 
 
+@pytest.mark.slow  # waits out the guard after Ctrl-C
 def test_a_script_still_running_after_ctrl_c_is_a_timeout_not_wrong(
     session: Session, tmp_path: Path
 ) -> None:
