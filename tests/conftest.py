@@ -121,7 +121,8 @@ def once_per_run(factory: pytest.TempPathFactory, name: str, make: Callable[[Pat
     """The folder ``<run>/<name>`` filled by ``make(folder)`` once per test run, also when
     pytest-xdist runs the tests in several workers: the first worker that needs it makes
     it in the run's shared folder, the others wait on a lock and use it. A ``make`` that
-    raised is tried again by the next worker that needs it."""
+    raised is tried again by the next worker that needs it; what it left is kept beside,
+    as ``<name>.failed-<n>``, for its logs."""
     shared = factory.getbasetemp()
     if os.environ.get("PYTEST_XDIST_WORKER"):
         shared = shared.parent  # the run's folder, above each worker's own
@@ -129,7 +130,9 @@ def once_per_run(factory: pytest.TempPathFactory, name: str, make: Callable[[Pat
     with open(shared / f"{name}.lock", "a") as lock:
         fcntl.flock(lock, fcntl.LOCK_EX)  # released when the file closes
         if not made.exists():
-            shutil.rmtree(folder, ignore_errors=True)
+            if folder.exists():  # an attempt that raised: keep its logs
+                tried = len(list(shared.glob(f"{name}.failed-*")))
+                folder.rename(shared / f"{name}.failed-{tried}")
             folder.mkdir()
             make(folder)
             made.touch()

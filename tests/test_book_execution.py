@@ -12,6 +12,7 @@ import nbformat
 import pytest
 from nbformat.v4 import new_code_cell, new_markdown_cell, new_notebook
 
+from rosbook.book.pages import failure_excerpt
 from rosbook.book.sphinx_execute import JOBS_VARIABLE
 
 #: A Sphinx build with kernels: out of `make test-fast`.
@@ -78,3 +79,31 @@ def test_chapters_execute_side_by_side_each_in_a_domain_of_its_own(tmp_path: Pat
     for first, second in zip(CHAPTERS, CHAPTERS[1:]):  # one process reads these in turn
         if {first, second} != {"c", "d"}:
             assert domains[first] != domains[second], domains
+
+
+def test_a_chapter_that_times_out_is_named_with_its_cell_in_the_failure(tmp_path: Path) -> None:
+    """A timed-out cell (or a dead kernel) fails the build with myst-nb's own account of
+    it, not with the end of the log only (a kernel's complaint that its socket closed)."""
+    source = project(tmp_path)
+    conf = (source / "conf.py").read_text().replace("timeout = 300", "timeout = 5")
+    (source / "conf.py").write_text(conf + "nb_execution_show_tb = True\n")  # as _config.yml
+    notebook = nbformat.read(source / "b.ipynb", 4)
+    notebook.cells.append(new_code_cell("import threading\nthreading.Event().wait()  # hangs"))
+    nbformat.write(notebook, source / "b.ipynb")
+    pairs = "a", "d"  # they wait for each other; keep them apart from the hang's reader
+    for name in pairs:
+        (source / f"{name}.ipynb").unlink()
+        toc = (source / "index.rst").read_text().replace(f"   {name}\n", "")
+        (source / "index.rst").write_text(toc)
+    done = subprocess.run(
+        [sys.executable, "-m", "sphinx", "-W", "-b", "html", str(source), str(tmp_path / "html")],
+        env={**os.environ, JOBS_VARIABLE: "2"},
+        capture_output=True,
+        text=True,
+        timeout=900,
+        check=False,
+    )
+    assert done.returncode != 0
+    excerpt = failure_excerpt(done.stdout + done.stderr)
+    assert "Executing notebook failed: CellTimeoutError" in excerpt.splitlines()[0], excerpt
+    assert "threading.Event().wait()" in excerpt, excerpt

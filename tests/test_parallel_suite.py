@@ -7,10 +7,13 @@ import os
 import re
 import subprocess
 import sys
+import time
 from pathlib import Path
 
+import pytest
+
 from rosbook.book.pages import ROOT
-from tests.conftest import LONGEST
+from tests.conftest import LONGEST, once_per_run
 
 #: The Makefile's pytest-xdist options (``PARALLEL``), read from the Makefile itself.
 PARALLEL = re.search(r"^PARALLEL := (.+)$", (ROOT / "Makefile").read_text(), re.M)
@@ -20,6 +23,8 @@ PARALLEL = re.search(r"^PARALLEL := (.+)$", (ROOT / "Makefile").read_text(), re.
 CONFTEST = """
 import os, time
 from pathlib import Path
+
+import pytest
 import pytest
 from tests.conftest import once_per_run
 
@@ -89,3 +94,20 @@ def test_files_with_slow_tests_are_handed_out_first_the_longest_first() -> None:
     longest = [f"tests/{name}" for name in LONGEST]
     assert [f for f in files if f in longest] == [f for f in longest if f in files], files
     assert files[0] == longest[0], files
+
+
+def test_a_make_that_raised_is_tried_again_and_its_files_are_kept(
+    tmp_path_factory: pytest.TempPathFactory,
+) -> None:
+    name = f"failing-{os.getpid()}-{time.monotonic_ns()}"
+
+    def fails(folder: Path) -> None:
+        (folder / "build.log").write_text("the first attempt's log")
+        raise RuntimeError("the first attempt failed")
+
+    with pytest.raises(RuntimeError, match="the first attempt failed"):
+        once_per_run(tmp_path_factory, name, fails)
+    folder = once_per_run(tmp_path_factory, name, lambda f: (f / "build.log").write_text("done"))
+    assert (folder / "build.log").read_text() == "done"
+    kept = folder.parent / f"{name}.failed-0" / "build.log"
+    assert kept.read_text() == "the first attempt's log"

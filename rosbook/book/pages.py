@@ -61,8 +61,11 @@ def build(out: Path, chapters: list[str] | None = None, timeout: float = 1800) -
 def failure_excerpt(log: str, context: int = 50) -> str:
     """The failing cell and its error from a build log, else the log's end."""
     lines = log.splitlines()
-    marker = "An error occurred while executing the following cell"
-    start = next((i for i, line in enumerate(lines) if marker in line), None)
+    markers = (
+        "An error occurred while executing the following cell",  # the cell raised
+        "Executing notebook failed",  # myst-nb: a cell timed out, the kernel died
+    )
+    start = next((i for i, ln in enumerate(lines) if any(m in ln for m in markers)), None)
     if start is None:
         return "\n".join(lines[-60:])
     return "\n".join(lines[start : start + context])
