@@ -18,6 +18,7 @@ from rclpy.qos import (
 
 from rosbook.demos import qos
 from rosbook.runtime.session import Session
+from rosbook.runtime.stress import busy_processes, cores
 
 
 def test_model_processes_1_2_5_9_for_the_slow_subscriber() -> None:
@@ -89,6 +90,41 @@ def test_measured_run_can_stop_at_a_horizon() -> None:
         qos.timeline_differences(run.records, qos.until(qos.model_records(2, 1.7, 3, 6), 4.0)) == []
     )
     assert run.processed == [1, 2, 5]
+
+
+def test_impossible_events_are_only_what_no_load_can_cause() -> None:
+    """The chapter's wall-time run asserts these, not the simulated table: a late wake-up
+    (here: a callback that ends at 1.9 s instead of 1.7 s) changes which messages are
+    processed, but never breaks them."""
+    assert qos.impossible_events(qos.model_records(2, 1.7, 3, 6), 1.7) == []
+    late = qos.model_records(2, 1.9, 3, 6)
+    assert qos.processed_indices(late) != qos.predict_processed(2, 1.7, 3, 6)
+    assert qos.impossible_events(late, 1.7) == []
+
+    assert qos.impossible_events(qos.model_records(2, 1.5, 3, 6), 1.7)[0] == (
+        "msg1 was processed in 1.500 s, less than the callback's 1.7 s"
+    )
+    swapped = qos.model_records(2, 1.7, 3, 6)
+    swapped[1].received, swapped[4].received = swapped[4].received, swapped[1].received
+    assert "messages taken out of order: [1, 5, 2, 9, 10, 11, 12]" in qos.impossible_events(
+        swapped, 1.7
+    )
+    overlapping = qos.model_records(2, 1.7, 3, 6)
+    overlapping[1].received = 1.0
+    assert "msg2 was taken while msg1 was worked on" in qos.impossible_events(overlapping, 1.7)
+    skipped = qos.model_records(2, 1.7, 3, 6)
+    skipped[0].received = skipped[0].processed = None
+    assert "msg1 was not the first message taken" in qos.impossible_events(skipped, 1.7)
+
+
+@pytest.mark.slow
+def test_a_wall_time_run_on_a_busy_cpu_shows_no_impossible_event() -> None:
+    """The chapter's wall-time run, with two busy processes per core: what it asserts
+    holds (its table may differ from the simulated one, and the chapter says so)."""
+    with busy_processes(2 * cores()):
+        run = qos.run_delivery(1.7, sim_time=False, horizon_s=6.0)
+    assert run.clock == "wall" and run.processed
+    assert qos.impossible_events(run.records, 1.7) == [], run.records
 
 
 def test_late_joiner_gets_nothing_when_volatile_and_the_last_depth_when_transient_local() -> None:

@@ -266,6 +266,34 @@ def timeline_differences(
     return problems
 
 
+def impossible_events(records: Sequence[MessageRecord], callback_s: float) -> list[str]:
+    """What a run of one subscriber whose callback works ``callback_s`` could never show,
+    whatever the machine's load (empty: nothing): the first message not taken at once,
+    messages taken out of publishing order, a message worked on for less than
+    ``callback_s``, or two worked on at the same time.
+
+    A load only delays events: on wall time, which messages are processed and when
+    depends on it; these hold for every run.
+    """
+    problems = []
+    taken = sorted((r for r in records if r.received is not None), key=lambda r: r.received)
+    if records and (not taken or taken[0].index != 1):
+        problems.append("msg1 was not the first message taken")
+    indices = [r.index for r in taken]
+    if indices != sorted(indices):
+        problems.append(f"messages taken out of order: {indices}")
+    for r in taken:
+        if r.processed is not None and r.processed - r.received < callback_s - 1e-6:
+            problems.append(
+                f"msg{r.index} was processed in {r.processed - r.received:.3f} s, "
+                f"less than the callback's {callback_s:g} s"
+            )
+    for before, after in zip(taken, taken[1:]):
+        if before.processed is None or after.received < before.processed - 1e-6:
+            problems.append(f"msg{after.index} was taken while msg{before.index} was worked on")
+    return problems
+
+
 def plot_timeline(records: Sequence[MessageRecord], title: str, ax: Any = None) -> Any:
     """Published / taken / processed / dropped markers per message over time."""
     import matplotlib.pyplot as plt
