@@ -122,19 +122,27 @@ def once_per_run(factory: pytest.TempPathFactory, name: str, make: Callable[[Pat
     pytest-xdist runs the tests in several workers: the first worker that needs it makes
     it in the run's shared folder, the others wait on a lock and use it. A ``make`` that
     raised is tried again by the next worker that needs it; what it left is kept beside,
-    as ``<name>.failed-<n>``, for its logs."""
+    as ``<name>.failed-<n>``, for its logs, and its error says where."""
     shared = factory.getbasetemp()
     if os.environ.get("PYTEST_XDIST_WORKER"):
         shared = shared.parent  # the run's folder, above each worker's own
     folder, made = shared / name, shared / f"{name}.made"
+
+    def keep() -> Path:
+        kept = shared / f"{name}.failed-{len(list(shared.glob(f'{name}.failed-*')))}"
+        folder.rename(kept)
+        return kept
+
     with open(shared / f"{name}.lock", "a") as lock:
         fcntl.flock(lock, fcntl.LOCK_EX)  # released when the file closes
         if not made.exists():
-            if folder.exists():  # an attempt that raised: keep its logs
-                tried = len(list(shared.glob(f"{name}.failed-*")))
-                folder.rename(shared / f"{name}.failed-{tried}")
+            if folder.exists():  # left by a worker killed while making it
+                keep()
             folder.mkdir()
-            make(folder)
+            try:
+                make(folder)
+            except Exception as error:
+                raise RuntimeError(f"making {name} failed; its files are in {keep()}") from error
             made.touch()
     return folder
 

@@ -61,16 +61,21 @@ def project(tmp_path: Path) -> Path:
     return source
 
 
-def test_chapters_execute_side_by_side_each_in_a_domain_of_its_own(tmp_path: Path) -> None:
-    source = project(tmp_path)
-    done = subprocess.run(
-        [sys.executable, "-m", "sphinx", "-W", "-b", "html", str(source), str(tmp_path / "html")],
-        env={**os.environ, JOBS_VARIABLE: "2"},  # two readers: a, b, c in one; d, e, f in the other
+def sphinx_build(source: Path, html: Path) -> subprocess.CompletedProcess[str]:
+    """``sphinx-build -W -b html`` of ``source`` with two parallel readers."""
+    return subprocess.run(
+        [sys.executable, "-m", "sphinx", "-W", "-b", "html", str(source), str(html)],
+        env={**os.environ, JOBS_VARIABLE: "2"},
         capture_output=True,
         text=True,
         timeout=900,
         check=False,
     )
+
+
+def test_chapters_execute_side_by_side_each_in_a_domain_of_its_own(tmp_path: Path) -> None:
+    source = project(tmp_path)
+    done = sphinx_build(source, tmp_path / "html")  # two readers: a, b, c; d, e, f
     assert done.returncode == 0, (done.stdout + done.stderr)[-3000:]
     domains = {name: (tmp_path / "seen" / f"domain-{name}").read_text() for name in CHAPTERS}
     build_domain = os.environ["ROS_DOMAIN_ID"]  # the test run is isolated (conftest)
@@ -95,14 +100,7 @@ def test_a_chapter_that_times_out_is_named_with_its_cell_in_the_failure(tmp_path
         (source / f"{name}.ipynb").unlink()
         toc = (source / "index.rst").read_text().replace(f"   {name}\n", "")
         (source / "index.rst").write_text(toc)
-    done = subprocess.run(
-        [sys.executable, "-m", "sphinx", "-W", "-b", "html", str(source), str(tmp_path / "html")],
-        env={**os.environ, JOBS_VARIABLE: "2"},
-        capture_output=True,
-        text=True,
-        timeout=900,
-        check=False,
-    )
+    done = sphinx_build(source, tmp_path / "html")
     assert done.returncode != 0
     excerpt = failure_excerpt(done.stdout + done.stderr)
     assert "Executing notebook failed: CellTimeoutError" in excerpt.splitlines()[0], excerpt

@@ -105,9 +105,12 @@ def test_a_make_that_raised_is_tried_again_and_its_files_are_kept(
         (folder / "build.log").write_text("the first attempt's log")
         raise RuntimeError("the first attempt failed")
 
-    with pytest.raises(RuntimeError, match="the first attempt failed"):
+    with pytest.raises(RuntimeError, match=f"making {name} failed; its files are in ") as raised:
         once_per_run(tmp_path_factory, name, fails)
+    assert str(raised.value.__cause__) == "the first attempt failed"
+    kept = Path(str(raised.value).rpartition(" ")[2]) / "build.log"
+    assert kept.read_text() == "the first attempt's log"
     folder = once_per_run(tmp_path_factory, name, lambda f: (f / "build.log").write_text("done"))
     assert (folder / "build.log").read_text() == "done"
-    kept = folder.parent / f"{name}.failed-0" / "build.log"
+    assert kept == folder.parent / f"{name}.failed-0" / "build.log"
     assert kept.read_text() == "the first attempt's log"
