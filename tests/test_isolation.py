@@ -6,6 +6,8 @@ import fcntl
 import os
 import subprocess
 import sys
+import time
+from pathlib import Path
 
 import pytest
 
@@ -73,6 +75,23 @@ def test_kill_marked_reaches_a_process_in_another_session() -> None:
         )  # Popen returns once the child runs with its environment: no wait needed
         assert kill_marked(r.token) == 1
         assert child.wait(timeout=5) != 0
+
+
+def test_kill_marked_passes_over_a_process_without_an_environment() -> None:
+    """An empty environment is read again for a moment (a process in ``execve`` shows
+    one until its stack is set up); one that stays empty is left alone."""
+    with reserve_domain() as r:
+        bare = subprocess.Popen(["env", "-i", "sleep", "60"], start_new_session=True)
+        try:
+            cmdline = Path(f"/proc/{bare.pid}/cmdline")
+            while not cmdline.read_bytes().startswith(b"sleep"):  # env has exec'd sleep
+                time.sleep(0.01)
+            assert Path(f"/proc/{bare.pid}/environ").read_bytes() == b""
+            assert kill_marked(r.token) == 0
+            assert bare.poll() is None
+        finally:
+            bare.kill()
+            bare.wait()
 
 
 def test_two_domains_do_not_hear_each_other(tmp_path) -> None:

@@ -158,11 +158,8 @@ def kill_marked(
         pid = int(proc_dir.name)
         if pid == os.getpid() or pid in exclude:
             continue
-        try:
-            environ = (proc_dir / "environ").read_bytes()
-        except OSError:  # gone already, or not ours to read
-            continue
-        if needle in environ.split(b"\0"):
+        environ = _start_environment(pid)
+        if environ is not None and needle in environ.split(b"\0"):
             try:
                 os.kill(pid, signal.SIGKILL)
                 killed.append(pid)
@@ -172,6 +169,35 @@ def kill_marked(
     while any(_alive(pid) for pid in killed) and time.monotonic() < deadline:
         time.sleep(0.02)
     return len(killed)
+
+
+#: How long an environment that reads empty is read again (seconds): see below.
+EXEC_SETTLE_S = 0.2
+#: ``/proc/PID/stat``'s flag of a kernel thread (which has no environment).
+PF_KTHREAD = 0x00200000
+
+
+def _start_environment(pid: int) -> bytes | None:
+    """The environment process ``pid`` was started with (None: gone, or not ours).
+
+    A process that is in ``execve`` has an empty one until its new stack is set up; its
+    parent may already have seen it exec (``subprocess.Popen`` has returned), so an
+    empty environment of a live process other than a kernel thread is read again for
+    up to ``EXEC_SETTLE_S``.
+    """
+    deadline = time.monotonic() + EXEC_SETTLE_S
+    while True:
+        try:
+            environ = Path(f"/proc/{pid}/environ").read_bytes()
+            stat = Path(f"/proc/{pid}/stat").read_text() if not environ else ""
+        except OSError:  # gone already, or not ours to read
+            return None
+        if environ or time.monotonic() > deadline:
+            return environ
+        fields = stat[stat.rindex(")") + 2 :].split()
+        if fields[0] in "ZX" or int(fields[6]) & PF_KTHREAD:  # dead, or a kernel thread
+            return environ
+        time.sleep(0.002)
 
 
 def _alive(pid: int) -> bool:
