@@ -83,8 +83,9 @@ def test_kill_marked_passes_over_a_process_without_an_environment() -> None:
     with reserve_domain() as r:
         bare = subprocess.Popen(["env", "-i", "sleep", "60"], start_new_session=True)
         try:
-            cmdline = Path(f"/proc/{bare.pid}/cmdline")
-            while not cmdline.read_bytes().startswith(b"sleep"):  # env has exec'd sleep
+            cmdline, guard = Path(f"/proc/{bare.pid}/cmdline"), time.monotonic() + 60
+            while not cmdline.read_bytes().startswith(b"sleep"):  # until env has exec'd sleep
+                assert time.monotonic() < guard, "timeout: env -i did not start sleep in 60 s"
                 time.sleep(0.01)
             assert Path(f"/proc/{bare.pid}/environ").read_bytes() == b""
             assert kill_marked(r.token) == 0

@@ -268,7 +268,7 @@ def timeline_differences(
 
 def impossible_events(records: Sequence[MessageRecord], callback_s: float) -> list[str]:
     """What a run of one subscriber whose callback works ``callback_s`` could never show,
-    whatever the machine's load (empty: nothing): the first message not taken at once,
+    whatever the machine's load (empty: nothing): msg1 not the first message taken,
     messages taken out of publishing order, a message worked on for less than
     ``callback_s``, or two worked on at the same time.
 
