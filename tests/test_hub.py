@@ -214,6 +214,10 @@ def test_release_submit_grade_and_feedback(browser, hub, tmp_path: Path) -> None
         pages_seen = _wait_for_files(state / "home" / name / LAB / "feedback", f"*/{LAB}.html")
         assert len(pages_seen) == 1, (name, pages_seen)
         own = (graded / "feedback" / name / LAB / f"{LAB}.html").read_bytes()
+        # the server may still be writing it: wait for the whole page, then compare
+        deadline = time.monotonic() + CELL_S
+        while len(pages_seen[0].read_bytes()) < len(own) and time.monotonic() < deadline:
+            time.sleep(0.2)
         assert pages_seen[0].read_bytes() == own, name  # their own, as graded
         scores[name] = own
     assert scores[STUDENTS[0]] != scores[STUDENTS[-1]]
