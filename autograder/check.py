@@ -25,9 +25,9 @@ from nbclient.exceptions import DeadKernelError
 from nbgrader.utils import determine_grade
 
 from autograder.config import CELL_TIMEOUT_S, LABS, ROOT, nbgrader_config
-from autograder.feedback import is_test_cell
+from autograder.feedback import cell_name, is_test_cell
 from autograder.integrity import grading_code_changes
-from autograder.kernels import CappedExecute
+from autograder.kernels import NOT_RUN, CappedExecute
 from autograder.worker import exit_calls, locked_cell_changes, timed_out_cells
 from rosbook.runtime.isolation import isolated_environ, kill_marked
 
@@ -61,6 +61,7 @@ class SelfCheck:
     changed: list[str] = field(default_factory=list)  # locked cells that differ
     flagged: list[str] = field(default_factory=list)  # lines reaching into grading code
     timed_out: list[str] = field(default_factory=list)  # cells interrupted at the limit
+    not_run: list[str] = field(default_factory=list)  # cells after one the kernel kept
     errors: list[str] = field(default_factory=list)  # student cells that raised
     big_outputs: list[str] = field(default_factory=list)  # saved outputs to clear
     died: list[str] = field(default_factory=list)  # the kernel died: the suspect lines
@@ -69,7 +70,12 @@ class SelfCheck:
 
     @property
     def passed(self) -> bool:
-        return bool(self.results) and all(r.passed for r in self.results) and not self.timed_out
+        return (
+            bool(self.results)
+            and all(r.passed for r in self.results)
+            and not self.timed_out
+            and not self.not_run
+        )
 
 
 @contextmanager
@@ -117,11 +123,6 @@ def error_message(cell: nbformat.NotebookNode) -> str:
     return ""
 
 
-def cell_name(cell: nbformat.NotebookNode, index: int) -> str:
-    """A cell's ``grade_id``, else its position (``cell 3``), as grading names it."""
-    return cell.get("metadata", {}).get("nbgrader", {}).get("grade_id") or f"cell {index + 1}"
-
-
 def student_errors(notebook: nbformat.NotebookNode) -> list[str]:
     """Cells outside the checks that raised, with their error (not the time limit's)."""
     found = []
@@ -129,7 +130,7 @@ def student_errors(notebook: nbformat.NotebookNode) -> list[str]:
         if cell.cell_type != "code" or is_test_cell(cell):
             continue
         for output in cell.get("outputs", []):
-            if output.output_type == "error" and output.ename != "CellTimeoutError":
+            if output.output_type == "error" and output.ename not in ("CellTimeoutError", NOT_RUN):
                 found.append(f"{cell_name(cell, index)}: {error_message(cell)}")
                 break
     return found
@@ -169,6 +170,7 @@ def check(path: Path, cell_timeout: int = CELL_TIMEOUT_S, log: Path | None = Non
     run = SelfCheck(
         results,
         timed_out=timed_out_cells(notebook),
+        not_run=timed_out_cells(notebook, NOT_RUN),
         errors=student_errors(notebook),
         big_outputs=big_outputs(saved),
         cell_timeout=cell_timeout,
@@ -212,6 +214,11 @@ def report(path: Path, run: SelfCheck) -> str:
             + ", ".join(run.timed_out)
             + ". Look for a loop that never ends or a spin without a timeout "
             "(rclpy.spin(node) in a notebook cell)."
+        )
+    if run.not_run:
+        lines.append(
+            f"  NOT RUN  a cell was still running {run.cell_timeout} s after it was "
+            "interrupted, so these later cells did not run: " + ", ".join(run.not_run)
         )
     if run.errors:
         lines.append("  ERROR  these cells of yours raised (the checks after them may fail too):")

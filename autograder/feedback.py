@@ -19,6 +19,11 @@ def is_test_cell(cell: NotebookNode) -> bool:
     return bool(meta.get("grade")) and not meta.get("solution") and cell.cell_type == "code"
 
 
+def cell_name(cell: NotebookNode, index: int) -> str:
+    """A cell's ``grade_id``, else its position (``cell 3``), as grading names it."""
+    return cell.get("metadata", {}).get("nbgrader", {}).get("grade_id") or f"cell {index + 1}"
+
+
 class ShortenTestTracebacks(Preprocessor):  # type: ignore[misc]
     """A failing test cell shows its error message only.
 

@@ -451,6 +451,13 @@ class Judgement:
     sandbox_pid: int | None = None
     #: What the check showed (``show``), as nbformat outputs for the verdict.
     outputs: list[dict[str, Any]] = field(default_factory=list)
+    #: The grader's limit on one cell (its ``--timeout``), if given: a run of the
+    #: student's code that only a blocking callback makes slow is given no longer.
+    cell_timeout: float | None = None
+
+    def guard(self, generous: float) -> float:
+        """``generous`` seconds, or the cell's limit if that is shorter."""
+        return min(generous, self.cell_timeout or generous)
 
     def show(self, shown: Any) -> None:
         """Show ``shown`` (anything IPython displays: a figure, a scene) in the test
@@ -651,7 +658,12 @@ def judge_one(request: dict[str, Any], kernels: dict[str, Kernel]) -> Verdict:
     kernel = kernels.get(request["connection_file"])
     if kernel is None:
         kernel = kernels[request["connection_file"]] = Kernel(request["connection_file"])
-    j = Judgement(kernel, Path(request["folder"]), request.get("sandbox_pid"))
+    j = Judgement(
+        kernel,
+        Path(request["folder"]),
+        request.get("sandbox_pid"),
+        cell_timeout=request.get("cell_timeout"),
+    )
     try:
         check(j)
         return Verdict(grade_id, True, outputs=j.outputs)

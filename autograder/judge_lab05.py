@@ -43,7 +43,8 @@ from rosbook.sim.node import DiffDriveSimNode
 from rosbook.sim.physics import Box, DiffDriveSim, Trajectory, World
 
 #: Wall-clock guard of one run (seconds): against a node whose callbacks block, never a
-#: verdict on speed (the solution's runs take a few seconds on a quiet machine).
+#: verdict on speed (the solution's runs take a few seconds on a quiet machine); no
+#: longer than the grader's limit on a cell (``Judgement.guard``).
 DRIVE_GUARD_S = 90.0
 #: The simulator's tick (seconds of simulated time between the node's turns), as in
 #: ``Simulation``: the controllers' 50 Hz timers and ``odom`` at 50 Hz.
@@ -133,12 +134,13 @@ def drive(
 
             clock.arrived = commands_arrived
             advance = False
-            give_up = time.monotonic() + DRIVE_GUARD_S
+            guard = j.guard(DRIVE_GUARD_S)
+            give_up = time.monotonic() + guard
             while sim.now < seconds - 1e-9 and not (advance and until()):
                 if time.monotonic() > give_up:
                     raise JudgeTimeout(
                         drive_checks.blocked(
-                            f"simulating {seconds:g} s took longer than {DRIVE_GUARD_S:g} s "
+                            f"simulating {seconds:g} s took longer than {guard:g} s "
                             f"of wall time (stopped at t={sim.now:.2f} s)."
                         )
                     )

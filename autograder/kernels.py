@@ -57,6 +57,7 @@ from nbgrader.preprocessors import Execute
 from traitlets import Bool, Float, Integer, default
 
 from autograder import cgroups, sandbox
+from autograder.feedback import cell_name
 
 #: Inside the sandbox: where the kernel's sockets and connection file are.
 KERNEL_DIR = "/run/kernel"
@@ -306,14 +307,67 @@ REAP = (
 )
 
 
+#: The error a cell shows when it was not run: the kernel was still busy with a cell
+#: interrupted at the time limit (``CappedExecute.busy_with``).
+NOT_RUN = "CellNotRun"
+
+
+def not_run_output(busy_with: str, cell_timeout: float) -> NotebookNode:
+    evalue = (
+        f"not run: the kernel was still busy with {busy_with}, which ran past the "
+        f"{cell_timeout:g} s limit and had not stopped {cell_timeout:g} s after it was "
+        "interrupted"
+    )
+    return new_output("error", ename=NOT_RUN, evalue=evalue, traceback=[f"{NOT_RUN}: {evalue}"])
+
+
 class CappedExecute(Execute):  # type: ignore[misc]
-    """nbgrader's ``Execute`` keeping at most ``max_output_bytes`` of output per cell."""
+    """nbgrader's ``Execute`` keeping at most ``max_output_bytes`` of output per cell,
+    and running no more cells once an interrupted one keeps the kernel busy.
+
+    A cell past the time limit is interrupted, and is given the limit once more to
+    stop (a launch shutting down, a spin woken by its next timer). A cell still running
+    after that never lets the kernel take another request (``rclpy.spin`` of a node
+    with only a subscription: rcl's wait is not woken by the interrupt), so the later
+    cells are not sent to it, each waiting out the limit: they show ``NOT_RUN`` at once
+    (``busy_with`` names the cell), and the kernel is ended with the notebook."""
 
     max_output_bytes = Integer(sandbox.Limits().output).tag(config=True)
     # A cell that printed far more than it keeps leaves its output queued after its
     # reply; the cut output is dropped and the notebook goes on (nbgrader would abandon
     # the whole notebook: 0 points earned elsewhere).
     raise_on_iopub_timeout = Bool(False).tag(config=True)
+    #: The cell the kernel is still busy with, interrupted and not stopped; None.
+    busy_with: str | None = None
+    _interrupted = False
+    _still_busy = False
+
+    async def _async_handle_timeout(
+        self, timeout: int, cell: NotebookNode | None = None
+    ) -> None | dict[str, Any]:
+        reply = await super()._async_handle_timeout(timeout, cell)
+        # nbclient then waits ``iopub_timeout`` for the interrupted cell's end: the limit
+        self._interrupted, self.iopub_timeout = True, max(self.iopub_timeout, timeout)
+        return reply  # type: ignore[no-any-return]
+
+    async def _async_poll_for_reply(
+        self,
+        msg_id: str,
+        cell: NotebookNode,
+        timeout: int | None,
+        task_poll_output_msg: asyncio.Future[Any],
+        task_poll_kernel_alive: asyncio.Future[Any],
+    ) -> dict[str, Any]:
+        iopub_timeout, self._interrupted = self.iopub_timeout, False
+        try:
+            reply = await super()._async_poll_for_reply(
+                msg_id, cell, timeout, task_poll_output_msg, task_poll_kernel_alive
+            )
+        finally:
+            self.iopub_timeout = iopub_timeout
+        # its end (the kernel's "idle") never came: the wait for it was cancelled
+        self._still_busy = self._interrupted and task_poll_output_msg.cancelled()
+        return reply  # type: ignore[no-any-return]
 
     @default("shutdown_kernel")
     def _shutdown_kernel_default(self) -> str:
@@ -379,8 +433,18 @@ class CappedExecute(Execute):  # type: ignore[misc]
     def preprocess_cell(
         self, cell: NotebookNode, resources: dict[str, Any], index: int
     ) -> tuple[NotebookNode, dict[str, Any]]:
+        if self.busy_with is not None:
+            if cell.cell_type == "code" and cell.source.strip():
+                cell.outputs, cell.execution_count = (
+                    [not_run_output(self.busy_with, self.timeout)],
+                    None,
+                )
+            return cell, resources
         self.make_room(resources, index)
-        return super().preprocess_cell(cell, resources, index)  # type: ignore[no-any-return]
+        cell, resources = super().preprocess_cell(cell, resources, index)
+        if self._still_busy:
+            self.busy_with = cell_name(cell, index)
+        return cell, resources
 
     def make_room(self, resources: dict[str, Any], index: int) -> None:
         """A sandbox left at its process limit by the cells so far: end its other

@@ -20,9 +20,11 @@ c.ClearSolutions.text_stub = "YOUR ANSWER HERE"
 c.Execute.timeout = 30
 c.Execute.interrupt_on_timeout = True
 c.Execute.allow_errors = True
-# An interrupted cell may take a while to stop (a spin that waits for its next event, a
-# launch shutting down): keep grading the next cells instead of abandoning the notebook
-# when its last output is late (nbgrader's default raises after 4 s).
+# A cell's last output may come late (a flood of output, an interrupted cell stopping:
+# a spin that waits for its next event, a launch shutting down): keep grading the next
+# cells instead of abandoning the notebook (nbgrader's default raises after 4 s). An
+# interrupted cell is given the cell limit once more to stop, and a cell still running
+# then is the last one run (autograder.kernels.CappedExecute).
 c.Execute.raise_on_iopub_timeout = False
 c.Execute.iopub_timeout = 10
 

@@ -34,7 +34,7 @@ from nbgrader.preprocessors import Execute
 from autograder import sandbox
 from autograder.feedback import is_test_cell
 from autograder.judge import Verdict, judged_checks
-from autograder.kernels import CappedExecute
+from autograder.kernels import CappedExecute, not_run_output
 
 #: Wall-clock guard on one verdict (a hang guard: hitting it is a "timeout").
 VERDICT_GUARD_S = 300.0
@@ -70,7 +70,12 @@ class Judging:
         )
 
     def verdict(
-        self, grade_id: str, connection_file: str, folder: str, sandbox_pid: int | None = None
+        self,
+        grade_id: str,
+        connection_file: str,
+        folder: str,
+        sandbox_pid: int | None = None,
+        cell_timeout: float | None = None,
     ) -> Verdict:
         self.start()  # again if it died on an earlier check
         assert self.process is not None
@@ -81,6 +86,7 @@ class Judging:
             "connection_file": connection_file,
             "folder": folder,
             "sandbox_pid": sandbox_pid,
+            "cell_timeout": cell_timeout,
         }
         try:
             self.process.stdin.write(json.dumps(request) + "\n")
@@ -149,11 +155,27 @@ class JudgedExecute(CappedExecute):  # type: ignore[misc]
             folder = getattr(self.km, "sandbox_folder", None) or str(
                 Path(resources.get("metadata", {}).get("path", ".")).resolve()
             )
-            verdict = _current.verdicts[grade_id] = _current.verdict(
-                grade_id, self.km.connection_file, folder, getattr(self.km, "sandbox_pid", None)
-            )
+            if self.busy_with is not None:  # the judge would wait on the kernel for nothing
+                verdict = Verdict(
+                    grade_id,
+                    False,
+                    f"timeout: {not_run_output(self.busy_with, self.timeout).evalue}",
+                    timeout=True,
+                )
+            else:
+                verdict = _current.verdict(
+                    grade_id,
+                    self.km.connection_file,
+                    folder,
+                    getattr(self.km, "sandbox_pid", None),
+                    self.timeout,
+                )
+            _current.verdicts[grade_id] = verdict
             shown = [nbformat.from_dict(output) for output in verdict.outputs]
-            if shown or not shows_figures(cell.source):
+            # a check that timed out in the judge would only time out again in the kernel
+            if self.busy_with is None and (
+                shown or verdict.timeout or not shows_figures(cell.source)
+            ):
                 defer_next_cell(self.kc)
             cell, resources = super().preprocess_cell(cell, resources, index)
             outputs = []

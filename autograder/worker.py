@@ -17,6 +17,7 @@ import sys
 import time
 import traceback
 import warnings
+from collections.abc import Sequence
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
@@ -27,7 +28,7 @@ from sqlalchemy.exc import SAWarning
 
 from autograder import kernels, sandbox
 from autograder.course import api
-from autograder.feedback import add_notice, is_test_cell
+from autograder.feedback import add_notice, cell_name, is_test_cell
 from autograder.integrity import grading_code_changes
 from autograder.verdicts import Judged, apply_verdicts, judged_preprocessors, judging
 
@@ -93,15 +94,17 @@ def drop_duplicate_grade_ids(notebook: nbformat.NotebookNode) -> bool:
     return changed
 
 
-def timed_out_cells(notebook: nbformat.NotebookNode) -> list[str]:
-    """Cells nbgrader interrupted because they ran past the per-cell limit."""
-    found = []
-    for index, cell in enumerate(notebook.cells):
-        for output in cell.get("outputs", []):
-            if output.get("output_type") == "error" and output.get("ename") == "CellTimeoutError":
-                meta = cell.get("metadata", {}).get("nbgrader", {})
-                found.append(meta.get("grade_id") or f"cell {index + 1}")
-    return found
+def timed_out_cells(notebook: nbformat.NotebookNode, ename: str = "CellTimeoutError") -> list[str]:
+    """Cells nbgrader interrupted because they ran past the per-cell limit (with
+    ``ename=kernels.NOT_RUN``: the cells not run after one kept the kernel busy)."""
+    return [
+        cell_name(cell, index)
+        for index, cell in enumerate(notebook.cells)
+        if any(
+            output.get("output_type") == "error" and output.get("ename") == ename
+            for output in cell.get("outputs", [])
+        )
+    ]
 
 
 def exit_calls(notebook: nbformat.NotebookNode) -> list[str]:
@@ -245,6 +248,7 @@ def grade(job: Job) -> Result:
     # A judged test cell's run in the kernel is only a hint for the student: when it is
     # slow, the judge's verdict still stands, and the machine's speed decides nothing.
     slow = [c for c in timed_out_cells(autograded) if c not in run.checks]
+    not_run = [c for c in timed_out_cells(autograded, kernels.NOT_RUN) if c not in run.checks]
 
     started = time.monotonic()
     feedback = grader.generate_feedback(job.assignment_id, job.student_id, force=True)
@@ -269,7 +273,7 @@ def grade(job: Job) -> Result:
         )
         add_notice(page, "Locked cells changed", message, status)
     else:
-        status, message = timeout_status(page, slow, judged, job.cell_timeout)
+        status, message = timeout_status(page, slow, judged, job.cell_timeout, not_run)
     status, message = judged_status(page, judged, status, message)
     if meddling:  # tampering too, though no locked cell changed: for a person to judge
         status = "tampered"
@@ -297,18 +301,31 @@ def grade(job: Job) -> Result:
 
 
 def timeout_status(
-    page: Path, slow: list[str], judged: Judged, cell_timeout: int
+    page: Path,
+    slow: list[str],
+    judged: Judged,
+    cell_timeout: int,
+    not_run: Sequence[str] = (),
 ) -> tuple[str, str]:
     """'timeout' and what ran out of time, or 'ok': cells the kernel interrupted at the
-    cell limit, and cells whose check by the judge hit its guard (with what the judge
-    waited for), each said as what it is."""
+    cell limit (and those not run because one kept the kernel busy), and cells whose
+    check by the judge hit its guard (with what the judge waited for), each said as
+    what it is."""
     said = []
-    if slow:
-        said.append(
+    if slow or not_run:
+        text = (
             f"These cells ran longer than {cell_timeout} s and were interrupted: "
             + ", ".join(slow)
             + ". Look for a loop that never ends or a spin without a timeout."
+            if slow
+            else ""
         )
+        if not_run:
+            text += (
+                f" A cell was still running {cell_timeout} s after it was interrupted, so "
+                "these later cells did not run: " + ", ".join(not_run) + "."
+            )
+        said.append(text.strip())
         add_notice(page, "Cells interrupted", said[-1], "timeout")
     if judged.timed_out:
         said.append(

@@ -19,9 +19,9 @@ import sys
 import time
 import urllib.error
 import urllib.request
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeVar
 from urllib.parse import parse_qs, urlencode, urlparse
 
 import nbformat
@@ -33,6 +33,8 @@ from autograder.sandbox import process_tree
 from rosbook.runtime.isolation import child_env
 from tests.labtools import answered
 from tests.test_jupyterlab import CELL_S, LAB, START_S, _index, _run_cell, _wait_for_notebook
+
+T = TypeVar("T")
 
 STUDENTS = ("ada", "ben", "cyd")
 INSTRUCTOR = "prof"
@@ -122,20 +124,33 @@ def _terminal(page: Any, command: str) -> None:
     page.keyboard.type(command + "\n")
 
 
-def _wait_for_text(path: Path, end: str, timeout: float = CELL_S) -> str:
+def _wait_until(found: Callable[[], T], what: str, timeout: float = CELL_S) -> T:
+    """Polls for what the terminal or the server writes; its guard says "timeout"."""
     deadline = time.monotonic() + timeout
-    while end not in (path.read_text() if path.exists() else ""):
-        assert time.monotonic() < deadline, f"timeout: {path} never ended with {end}"
-        time.sleep(0.2)  # polling for the file the terminal writes
-    return path.read_text()
+    while not (result := found()):
+        assert time.monotonic() < deadline, f"timeout: {what}"
+        time.sleep(0.2)
+    return result
+
+
+def _wait_for_text(path: Path, end: str, timeout: float = CELL_S) -> str:
+    def ended() -> str:
+        text = path.read_text() if path.exists() else ""
+        return text if end in text else ""
+
+    return _wait_until(ended, f"{path} never ended with {end}", timeout)
 
 
 def _wait_for_files(folder: Path, pattern: str) -> list[Path]:
-    deadline = time.monotonic() + CELL_S
-    while not (found := sorted(folder.glob(pattern))):
-        assert time.monotonic() < deadline, f"timeout: nothing like {pattern} in {folder}"
-        time.sleep(0.2)  # polling for the files the server writes
-    return found
+    return _wait_until(lambda: sorted(folder.glob(pattern)), f"nothing like {pattern} in {folder}")
+
+
+def _wait_for_bytes(path: Path, size: int) -> bytes:
+    def whole() -> bytes:
+        data = path.read_bytes()
+        return data if len(data) >= size else b""
+
+    return _wait_until(whole, f"{path} stayed shorter than {size} bytes")
 
 
 def _hub_command(hub: dict[str, Any], *args: str) -> str:
@@ -215,10 +230,7 @@ def test_release_submit_grade_and_feedback(browser, hub, tmp_path: Path) -> None
         assert len(pages_seen) == 1, (name, pages_seen)
         own = (graded / "feedback" / name / LAB / f"{LAB}.html").read_bytes()
         # the server may still be writing it: wait for the whole page, then compare
-        deadline = time.monotonic() + CELL_S
-        while len(pages_seen[0].read_bytes()) < len(own) and time.monotonic() < deadline:
-            time.sleep(0.2)
-        assert pages_seen[0].read_bytes() == own, name  # their own, as graded
+        assert _wait_for_bytes(pages_seen[0], len(own)) == own, name  # their own, as graded
         scores[name] = own
     assert scores[STUDENTS[0]] != scores[STUDENTS[-1]]
     # the formgrader is the instructor's alone

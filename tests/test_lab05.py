@@ -12,11 +12,12 @@ import sys
 from collections.abc import Iterator
 from pathlib import Path
 
+import nbformat
 import pytest
 
 from rosbook.book import pages as bookpages
 from rosbook.viz import twin
-from tests.labtools import answered, feedback, grade, replace_in_answer, submit
+from tests.labtools import answered, feedback, grade, grade_id, replace_in_answer, submit
 
 #: The whole lab graded as a class: minutes (`make test-fast` leaves it out).
 pytestmark = pytest.mark.slow
@@ -189,6 +190,23 @@ def test_blocking_callback_is_a_timeout_never_a_wrong_answer(graded) -> None:
     assert "ran out of time before it could decide" in text
     assert "test_square_driver (timeout: " in text
     assert "too slow" not in text
+
+
+def test_a_blocking_drive_is_given_the_cells_limit_once(graded) -> None:
+    """The judge's drive is given no longer than the grader's limit on a cell (40 s
+    here, not its own 90 s), and the test cell whose check timed out in the judge is
+    not run again in the kernel, where it would only wait out the limit once more."""
+    text = html.unescape(page(graded, "sleeping"))
+    assert "took longer than 40 s of wall time" in text, text[-3000:]
+    autograded = graded[1] / "autograded" / "sleeping" / LAB / f"{LAB}.ipynb"
+    cell = next(
+        c
+        for c in nbformat.read(autograded, as_version=4).cells
+        if grade_id(c) == "test_square_driver"
+    )
+    assert [o.get("ename") for o in cell.outputs if o.output_type == "error"] == ["CheckFailed"], (
+        cell.outputs
+    )
 
 
 def test_solution_scores_full_marks_on_an_oversubscribed_cpu(

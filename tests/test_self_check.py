@@ -10,7 +10,7 @@ import nbformat
 import pytest
 
 from autograder.check import big_outputs
-from tests.labtools import answered
+from tests.labtools import answered, grade_id
 
 #: Each test runs the self-check's notebook in a kernel: out of `make test-fast`.
 pytestmark = pytest.mark.slow
@@ -45,6 +45,29 @@ def test_self_check_reports_a_timed_out_cell_and_a_raising_cell_and_keeps_logs_o
     assert "[INFO]" not in out and "Publishing" not in out and done.stderr == "", out
     assert f"(the nodes' log lines: {log})" in out, out
     assert "Publishing: " in log.read_text()
+
+
+def test_self_check_names_the_cells_a_kernel_kept_busy_did_not_run(tmp_path: Path) -> None:
+    """A spin that the interrupt cannot stop (a node with only a subscription): the
+    cells after it are not run, and the report says so rather than showing each of them
+    interrupted after waiting out the limit."""
+    notebook = answered(LAB)
+    at = next(i for i, c in enumerate(notebook.cells) if grade_id(c) == "doubler") + 1
+    notebook.cells.insert(at, nbformat.v4.new_code_cell("import rclpy\nrclpy.spin(Doubler())"))
+    path = tmp_path / f"{LAB}.ipynb"
+    nbformat.write(notebook, path)
+    done = subprocess.run(
+        [sys.executable, "-m", "autograder", "check", str(path), "--timeout", "10",
+         "--log", str(tmp_path / "check.log")],
+        capture_output=True, text=True, timeout=600, check=False,
+    )  # fmt: skip
+    out = done.stdout
+    assert done.returncode == 1, out + done.stderr
+    interrupted = "TIMEOUT  these cells ran longer than 10 s and were interrupted"
+    assert f"{interrupted}; grading will mark the submission 'timeout': cell {at + 1}." in out, out
+    not_run = "NOT RUN  a cell was still running 10 s after it was interrupted"
+    assert f"{not_run}, so these later cells did not run: test_doubler, talker_script" in out, out
+    assert "not run: the kernel was still busy with cell" in out, out
 
 
 def test_big_saved_outputs_are_named_so_they_can_be_cleared() -> None:

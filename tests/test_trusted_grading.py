@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import base64
 import csv
+import html
 import shutil
 import subprocess
 import sys
@@ -22,7 +23,7 @@ import nbformat
 import pytest
 
 from autograder.config import ROOT
-from tests.labtools import answered, feedback, replace_in_answer, submit
+from tests.labtools import answered, feedback, grade_id, replace_in_answer, submit
 from tests.test_lab01 import LAB, extra_cell, wrong
 
 #: Each case grades attack notebooks with the documented command: out of `make test-fast`.
@@ -173,6 +174,36 @@ def test_a_kernel_left_busy_keeps_the_points_earned_before_it(graded) -> None:
     r = rows["spin_stuck_in_cell"]
     assert (r["score"], r["status"]) == ("5", "timeout")  # publisher 3 + subscriber 2
     assert "interrupted: doubler" in feedback(out, "spin_stuck_in_cell", LAB)
+
+
+def test_cells_after_one_that_keeps_the_kernel_busy_are_not_run_and_say_so(graded) -> None:
+    """The interrupt never stops that spin: the later cells are not sent to the kernel
+    (each would wait out the limit), nor its checks to the judge (which would wait for
+    the kernel); each says why, and the student is told which cells did not run."""
+    _, out = graded
+    page = html.unescape(feedback(out, "spin_stuck_in_cell", LAB))
+    assert "30 s after it was interrupted, so these later cells did not run: talker_script" in page
+    autograded = nbformat.read(
+        out / "autograded" / "spin_stuck_in_cell" / LAB / f"{LAB}.ipynb", as_version=4
+    )
+    after = autograded.cells[
+        next(i for i, c in enumerate(autograded.cells) if grade_id(c) == "doubler") + 1 :
+    ]
+    shown = {
+        grade_id(c): [o.get("evalue", "") for o in c.outputs]
+        for c in after
+        if c.cell_type == "code"
+    }
+    assert set(shown) == {"test_doubler", "talker_script", "test_talker_script"}, shown
+    for cell, outputs in shown.items():
+        assert (
+            len(outputs) == 1 and "not run: the kernel was still busy with doubler" in outputs[0]
+        ), (
+            cell,
+            outputs,
+        )
+    log = (out / "logs" / "spin_stuck_in_cell" / f"{LAB}.log").read_text()
+    assert "[judge] test_doubler" not in log and "[judge] test_talker_script" not in log, log
 
 
 @pytest.mark.parametrize("attack", [*ATTACKS, SHIPPED])
