@@ -38,7 +38,8 @@ LONGEST = (
     "test_trusted_grading.py",  # lab 1's class of attacks, about 300 s
     "test_lab05.py",  # a class with a submission whose drive hangs, about 290 s
     "test_judge_process.py",  # mostly waits out the judge's guards: fills others' gaps
-    "test_book_browser.py",  # builds the book for both book files unless test_book did
+    "test_book_scenes.py",  # builds the book unless another file did; 3D rendering
+    "test_book_browser.py",  # every page in the browser
     "test_grading_runs.py",
     "test_hub.py",
     "test_trusted_grading_labs.py",
@@ -162,6 +163,15 @@ def built_book(tmp_path_factory: pytest.TempPathFactory) -> Path:
         bookpages.build(out)
 
     return once_per_run(tmp_path_factory, "book", build) / "_build" / "html"
+
+
+@pytest.fixture(scope="module")
+def site(built_book: Path) -> Iterator[str]:
+    """The built book served over http on loopback (the browser tests' site)."""
+    from rosbook.book.site import serve
+
+    with serve(built_book) as url:
+        yield url
 
 
 @pytest.fixture(scope="session")

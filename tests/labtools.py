@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import copy
 import csv
+import re
 from pathlib import Path
 
 import nbformat
@@ -94,6 +95,14 @@ def grade(submissions: Path, out: Path, **kwargs: object) -> dict[tuple[str, str
     grade_class(submissions, out, **kwargs)  # type: ignore[arg-type]
     with open(out / "grades.csv") as f:
         return {(r["student_id"], r["assignment_id"]): r for r in csv.DictReader(f)}
+
+
+def assert_counted_from_zero(log: str) -> None:
+    """``log`` (a lab 1 try-it cell's output) holds the counter publisher's lines,
+    ``Publishing: 0``, ``1``, ... in order: at least the first. How many a wall-clock spin
+    shows depends on the machine's speed (three on an idle one), never on the code."""
+    counts = [int(n) for n in re.findall(r"Publishing: (-?\d+)", log)]
+    assert counts and counts == list(range(len(counts))), log
 
 
 def feedback(out: Path, student: str, lab: str) -> str:

@@ -1,7 +1,7 @@
 """Recorded scenes are framed on what they show, describe it in words, and have a still.
 
 The browser side (the robot in view at desktop and phone sizes) is in
-tests/test_book_browser.py; here the framing each scene carries is checked against the
+tests/test_book_scenes.py; here the framing each scene carries is checked against the
 robot's own geometry, and the still picture against the robot's colour.
 """
 

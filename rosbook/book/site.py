@@ -88,9 +88,27 @@ class Visit:
     console: list[str] = field(default_factory=list)  # "error: ..." / "warning: ..."
     failed: list[str] = field(default_factory=list)  # requests that failed or got >= 400
     outside: list[str] = field(default_factory=list)  # requests to another host (blocked)
-    transferred: dict[str, int] = field(default_factory=dict)  # URL -> bytes on the wire
-    decoded: dict[str, int] = field(default_factory=dict)  # URL -> bytes uncompressed
     load_seconds: float = 0.0
+    #: The requests that finished while the page loaded; weighed when first asked
+    #: (``transferred``, ``decoded``), inside the ``visit`` block: two calls into the
+    #: browser per request, which most visits never need.
+    finished: list[Any] = field(default_factory=list)
+    _weights: tuple[dict[str, int], dict[str, int]] | None = None
+
+    @property
+    def transferred(self) -> dict[str, int]:
+        """URL -> bytes on the wire."""
+        return self._weighed()[0]
+
+    @property
+    def decoded(self) -> dict[str, int]:
+        """URL -> bytes uncompressed."""
+        return self._weighed()[1]
+
+    def _weighed(self) -> tuple[dict[str, int], dict[str, int]]:
+        if self._weights is None:
+            self._weights = _weigh(self.finished)
+        return self._weights
 
     @property
     def total_bytes(self) -> int:
@@ -127,7 +145,6 @@ def visit(
         if response.status >= 400:
             seen.failed.append(f"{response.status} {response.url}")
 
-    finished: list[Any] = []
     context.route("**/*", route)
 
     def on_console(message: Any) -> None:
@@ -137,6 +154,7 @@ def visit(
     page.on("console", on_console)
     page.on("pageerror", lambda e: seen.console.append(f"error: {e}"))
     page.on("response", on_response)
+    finished: list[Any] = []
     page.on("requestfinished", lambda request: finished.append(request))
     # Requests in flight and the time of the last change: the page is loaded when the
     # network has been quiet a while (Playwright's "networkidle" comes from the page's
@@ -157,7 +175,7 @@ def visit(
         page.goto(url, wait_until="load", timeout=LOAD_TIMEOUT_MS)
         _wait_until_quiet(page, network, started)
         seen.load_seconds = time.perf_counter() - started
-        _weigh(finished, seen)
+        seen.finished = list(finished)  # what loading fetched, not what came after
         yield seen
     finally:
         context.close()
@@ -179,19 +197,23 @@ def _wait_until_quiet(page: Any, network: dict[str, Any], started: float) -> Non
         page.wait_for_timeout(100)  # lets Playwright deliver the network events
 
 
-def _weigh(requests: list[Any], seen: Visit) -> None:
-    """Bytes on the wire (encoded) and uncompressed, for each request that got a body."""
+def _weigh(requests: list[Any]) -> tuple[dict[str, int], dict[str, int]]:
+    """Bytes on the wire (encoded) and uncompressed, by URL, for each request that got a
+    body."""
+    transferred: dict[str, int] = {}
+    decoded: dict[str, int] = {}
     for request in requests:
         response = request.response()
         if response is None or response.status >= 400 or request.url.startswith("data:"):
             continue
         encoded = request.sizes()["responseBodySize"]
         try:
-            decoded = len(response.body())
+            body = len(response.body())
         except Exception:  # a body the browser already discarded
-            decoded = encoded
-        seen.transferred[request.url] = encoded
-        seen.decoded[request.url] = decoded
+            body = encoded
+        transferred[request.url] = encoded
+        decoded[request.url] = body
+    return transferred, decoded
 
 
 def scene_ids(page: Any) -> list[str]:
