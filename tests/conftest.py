@@ -13,6 +13,7 @@ import pytest
 
 from rosbook.book import pages as bookpages
 from rosbook.book.pages import ROOT
+from rosbook.book.site import serve
 from rosbook.runtime.isolation import isolated_environ
 from rosbook.runtime.session import Session, ros
 
@@ -168,8 +169,6 @@ def built_book(tmp_path_factory: pytest.TempPathFactory) -> Path:
 @pytest.fixture(scope="module")
 def site(built_book: Path) -> Iterator[str]:
     """The built book served over http on loopback (the browser tests' site)."""
-    from rosbook.book.site import serve
-
     with serve(built_book) as url:
         yield url
 

@@ -20,8 +20,6 @@ from rosbook.book.site import scene_ids, visit, wait_for_first_frame
 from rosbook.book.stills import PRINT_CLASS, STILL_CLASS
 from tests.test_book_browser import SIZES, robots_in, scene_pages
 
-# --- the 3D scenes -------------------------------------------------------------------
-
 
 def _box_png(page: object, scene: str) -> np.ndarray:
     png = page.locator(f"#{scene}").screenshot(type="png")

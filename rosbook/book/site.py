@@ -93,22 +93,20 @@ class Visit:
     #: (``transferred``, ``decoded``), inside the ``visit`` block: two calls into the
     #: browser per request, which most visits never need.
     finished: list[Any] = field(default_factory=list)
-    _weights: tuple[dict[str, int], dict[str, int]] | None = None
 
     @property
     def transferred(self) -> dict[str, int]:
         """URL -> bytes on the wire."""
-        return self._weighed()[0]
+        return self._weights[0]
 
     @property
     def decoded(self) -> dict[str, int]:
         """URL -> bytes uncompressed."""
-        return self._weighed()[1]
+        return self._weights[1]
 
-    def _weighed(self) -> tuple[dict[str, int], dict[str, int]]:
-        if self._weights is None:
-            self._weights = _weigh(self.finished)
-        return self._weights
+    @functools.cached_property
+    def _weights(self) -> tuple[dict[str, int], dict[str, int]]:
+        return _weigh(self.finished)
 
     @property
     def total_bytes(self) -> int:
