@@ -26,7 +26,7 @@ book: $(STAMP)
 ## test: the whole test suite (library, labs round trip, grader, book build); in
 ## TEST_WORKERS parallel workers (logical: one per CPU; 0: in this process; tests/conftest.py
 ## groups them)
-TEST_WORKERS ?= 2
+TEST_WORKERS ?= 4
 PARALLEL := -n $(TEST_WORKERS) --dist loadfile --no-loadscope-reorder
 test: $(STAMP)
 	$(ISOLATED) $(BIN)/python -m pytest $(PARALLEL)
