@@ -71,11 +71,11 @@ def ended(proc: subprocess.Popen[str], group: cgroups.Cgroup) -> str:
     return out
 
 
-# waits for ten throttled periods, longer on a loaded machine: slow tier
+# waits for ten periods of its quota (a second): slow tier with the sandbox tests
 @pytest.mark.slow
 def test_a_busy_sandbox_gets_at_most_its_cpu_quota(tmp_path, private, writable) -> None:
-    """A busy loop is throttled at its quota: CPU used <= quota x periods it ran in
-    (the kernel's own counters; on a loaded machine it may get less, never more)."""
+    """A busy loop gets at most its quota: CPU used <= quota x periods it ran in (the
+    kernel's own counters; on a loaded machine it may get less, never more)."""
     cpus = 0.2
     with sandbox.Network() as net:
         proc, group, pid = started(
@@ -87,7 +87,11 @@ def test_a_busy_sandbox_gets_at_most_its_cpu_quota(tmp_path, private, writable) 
         )
         try:
             assert proc.stdout is not None and proc.stdout.readline() == "spinning\n"
-            wait_for("10 throttled periods", lambda: group.cpu_periods()[1] >= 10)
+            # Ten periods of the quota pass whatever the load; a throttled period needs the
+            # loop to reach its quota in one, which a CPU shared by many may never give it
+            # (make stress: none in 120 s). The bound below holds either way, and an idle
+            # machine would run an unlimited loop far past it.
+            wait_for("10 periods of the CPU quota", lambda: group.cpu_periods()[0] >= 10)
             used = group.cpu_seconds()
             periods, throttled = group.cpu_periods()
         finally:
