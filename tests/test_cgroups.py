@@ -71,7 +71,7 @@ def ended(proc: subprocess.Popen[str], group: cgroups.Cgroup) -> str:
     return out
 
 
-# waits for ten periods of its quota (a second): slow tier with the sandbox tests
+# a sandbox and a second of its quota's periods (longer on a loaded machine): slow tier
 @pytest.mark.slow
 def test_a_busy_sandbox_gets_at_most_its_cpu_quota(tmp_path, private, writable) -> None:
     """A busy loop gets at most its quota: CPU used <= quota x periods it ran in (the
