@@ -32,7 +32,15 @@ from autograder.hub import COURSE, add, serve, stop
 from autograder.sandbox import process_tree
 from rosbook.runtime.isolation import child_env
 from tests.labtools import answered, assert_counted_from_zero
-from tests.test_jupyterlab import CELL_S, LAB, START_S, _index, _run_cell, _wait_for_notebook
+from tests.test_jupyterlab import (
+    CELL_S,
+    LAB,
+    START_S,
+    _index,
+    _run_cell,
+    _terminal,
+    _wait_for_notebook,
+)
 
 T = TypeVar("T")
 
@@ -112,16 +120,6 @@ def _open_lab(page: Any, url: str, name: str) -> None:
     page.wait_for_url(f"**/user/{name}/lab**", timeout=START_S * 1000)
     page.goto(f"{url}/user/{name}/lab/tree/{LAB}.ipynb", timeout=START_S * 1000)
     _wait_for_notebook(page)
-
-
-def _terminal(page: Any, command: str) -> None:
-    page.evaluate(
-        "async () => { await window.jupyterapp.commands.execute('terminal:create-new'); }"
-    )
-    terminal = page.locator(".jp-Terminal .xterm-helper-textarea").first
-    terminal.wait_for(state="attached", timeout=START_S * 1000)
-    terminal.focus()
-    page.keyboard.type(command + "\n")
 
 
 def _wait_until(found: Callable[[], T], what: str, timeout: float = CELL_S) -> T:

@@ -129,6 +129,27 @@ def _run_cell(page: Any, index: int) -> str:
     )
 
 
+def _terminal(page: Any, command: str) -> None:
+    """Open a new terminal as a student does (File > New > Terminal), wait until it has the
+    keyboard and type ``command`` into it. JupyterLab gives a new terminal the focus once its
+    xterm is ready, and it restores the terminals a student left open (a later login shows
+    them again): keys typed before then go to another terminal, or split between two."""
+    widget = page.evaluate(
+        """async () => {
+            const widget = await window.jupyterapp.commands.execute('terminal:create-new');
+            return widget.id;
+        }"""
+    )
+    keys = page.locator(f"[id='{widget}'] .xterm-helper-textarea")
+    keys.wait_for(state="attached", timeout=START_S * 1000)
+    page.wait_for_function(
+        "id => document.getElementById(id).contains(document.activeElement)",
+        arg=widget,
+        timeout=START_S * 1000,
+    )
+    page.keyboard.type(command + "\n")
+
+
 def _wait_for_notebook(page: Any) -> None:
     """Until the open notebook's kernel is idle; it is then ``window.labNotebook``."""
     page.wait_for_function(
@@ -170,13 +191,7 @@ def test_a_student_session_in_jupyterlab(browser, lab_server) -> None:
 
         # a terminal of `make lab` has the venv's ros2, in the kernel's ROS domain
         listing = folder / "nodes.txt"
-        page.evaluate(
-            "async () => { await window.jupyterapp.commands.execute('terminal:create-new'); }"
-        )
-        terminal = page.locator(".jp-Terminal .xterm-helper-textarea").first
-        terminal.wait_for(state="attached", timeout=START_S * 1000)
-        terminal.focus()
-        page.keyboard.type(f"ros2 node list > {listing} 2>&1; echo end-of-list >> {listing}\n")
+        _terminal(page, f"ros2 node list > {listing} 2>&1; echo end-of-list >> {listing}")
         deadline = time.monotonic() + CELL_S
         while "end-of-list" not in (listing.read_text() if listing.exists() else ""):
             assert time.monotonic() < deadline, "the terminal never ran ros2 node list"
