@@ -141,6 +141,8 @@ def _terminal(page: Any, command: str) -> None:
         }"""
     )
     keys = page.locator(f"[id='{widget}'] .xterm-helper-textarea")
+    # first in the page: Playwright fails at once when the predicate below throws, as it
+    # does while the widget is not attached (getElementById(id) is null)
     keys.wait_for(state="attached", timeout=START_S * 1000)
     page.wait_for_function(
         "id => document.getElementById(id).contains(document.activeElement)",
