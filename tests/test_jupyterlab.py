@@ -141,8 +141,8 @@ def _terminal(page: Any, command: str) -> None:
         }"""
     )
     keys = page.locator(f"[id='{widget}'] .xterm-helper-textarea")
-    # first in the page: Playwright fails at once when the predicate below throws, as it
-    # does while the widget is not attached (getElementById(id) is null)
+    # attached first: Playwright's wait_for_function fails at once when its predicate
+    # throws, and the one below throws (getElementById is null) until the widget is attached
     keys.wait_for(state="attached", timeout=START_S * 1000)
     page.wait_for_function(
         "id => document.getElementById(id).contains(document.activeElement)",
