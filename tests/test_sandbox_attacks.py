@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import hashlib
 import os
+import re
 from pathlib import Path
 
 import nbformat
@@ -31,9 +32,16 @@ def attacks(root: Path, out: Path) -> dict[str, str]:
     checks_py = ROOT / "rosbook" / "labs" / "lab01.py"
     return {
         # secrets read
-        "read_gradebook": "import glob\nfor p in glob.glob('/**/gradebook.db', recursive=True)"
-        " + ['../../../gradebook.db']:\n    try:\n        print(open(p, 'rb').read())\n"
-        "    except OSError as exc:\n        print(exc)",
+        # every folder it can see but the installed software (read-only, the host's) and
+        # /proc's endless views (read_other_notebook tries /proc/*/cwd), searched to its
+        # end: a search stopped at the cell's limit would prove nothing
+        "read_gradebook": "import os, sys\nfound, searched = ['../../../gradebook.db'], 0\n"
+        "skip = {'/proc', '/sys', '/dev', '/usr', sys.prefix, sys.base_prefix}\n"
+        "for top, dirs, files in os.walk('/'):\n    searched += 1\n"
+        "    dirs[:] = [d for d in dirs if os.path.join(top, d) not in skip]\n"
+        "    if 'gradebook.db' in files:\n        found.append(os.path.join(top, 'gradebook.db'))\n"
+        "print(f'searched {searched} folders')\nfor p in found:\n    try:\n"
+        "        print(open(p, 'rb').read())\n    except OSError as exc:\n        print(exc)",
         "read_solutions": f"print(open({str(SOLUTIONS / LAB / (LAB + '.ipynb'))!r}).read())",
         "read_environment": "import os\nprint(dict(os.environ))",
         "read_other_notebook": "import glob\nfor p in glob.glob('/proc/*/cwd/*.ipynb') + "
@@ -164,6 +172,9 @@ def test_no_secret_reaches_the_feedback(graded) -> None:
         assert "SQLite format" not in page, name
         assert "the grader&#x27;s secret" not in page and "the grader's secret" not in page, name
         assert VICTIM_MARK not in page, name
+    # the search for gradebooks ran to its end, finding none: one stopped by the cell's
+    # time limit would have searched nothing
+    assert re.search(r"searched \d+ folders", feedback(out, "read_gradebook", LAB))
 
 
 def test_nobody_else_is_harmed(graded) -> None:
