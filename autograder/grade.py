@@ -26,7 +26,7 @@ import time
 import uuid
 from collections.abc import Callable, Iterator
 from concurrent.futures import ThreadPoolExecutor, as_completed
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import TextIO
 
@@ -38,6 +38,7 @@ from autograder.course import generate
 from autograder.feedback import write_notice_page
 from autograder.gradebook import CellComment, CellGrade, add_assignment, read_scratch
 from autograder.gradebook import record as record_in_gradebook
+from autograder.judge import shared_env
 from autograder.progress import Progress
 from autograder.results import Journal, folder_digest, write_atomic, write_tables
 from autograder.worker import Job, refusal
@@ -78,6 +79,7 @@ class Assignment:
     notebook: str
     max_score: float
     digest: str  # of the lab's source: a changed lab is graded again on --resume
+    env: dict[str, str] = field(default_factory=dict)  # what its judge shares (shared_env)
 
 
 def prepare(assignment_id: str, work: Path, out: Path | None = None) -> Assignment:
@@ -95,7 +97,8 @@ def prepare(assignment_id: str, work: Path, out: Path | None = None) -> Assignme
     digest = folder_digest(SOLUTIONS / assignment_id)
     if out is not None:
         add_assignment(out, template, assignment_id, digest)
-    return Assignment(assignment_id, template, notebooks[0], max_score, digest)
+    env = shared_env(assignment_id, work / "shared" / assignment_id)
+    return Assignment(assignment_id, template, notebooks[0], max_score, digest, env)
 
 
 @dataclass
@@ -229,8 +232,9 @@ def grade_one(
             str(scratch / "course"),
             str(feedback),
             cell_timeout,
-            env=domain.env({}),
-            next_env=following.env({}) if following else {},
+            env=domain.env(assignment.env),
+            # most likely the same lab's (a kernel started for another's is not used)
+            next_env=following.env(assignment.env) if following else {},
             log=str(log_file),
         )
         result = slot.run(job, submission_timeout)

@@ -93,6 +93,27 @@ def judged_checks(assignment_id: str) -> dict[str, Callable[[Judgement], None]]:
     return importlib.import_module(JUDGED_LABS[assignment_id]).CHECKS  # type: ignore[no-any-return]
 
 
+def shared_env(assignment_id: str, folder: Path) -> dict[str, str]:
+    """What the judge of ``assignment_id`` makes once for a whole grading run (its
+    module's ``share(folder)``: lab 6's reference build), as the environment that gives
+    it, read-only, to every sandbox of the run (``sandbox.SHARED_ENV``); empty for a lab
+    that shares nothing, or whose share failed (each submission then makes its own, and
+    the class is graded as before). The grader makes it, never a student's code."""
+    module = JUDGED_LABS.get(assignment_id)
+    share = getattr(importlib.import_module(module), "share", None) if module else None
+    if share is None:
+        return {}
+    folder.mkdir(parents=True, exist_ok=True)
+    folder = folder.resolve()  # the path sandboxes see it at: no link on the way
+    try:
+        share(folder)
+    except Exception as exc:  # noqa: BLE001 - never a reason to stop a class's grading
+        print(f"{assignment_id}: nothing shared ({exc}); each submission builds its own",
+              file=sys.stderr, flush=True)  # fmt: skip
+        return {}
+    return {sandbox.SHARED_ENV: str(folder)}
+
+
 # -- the kernel side -----------------------------------------------------------------
 
 #: Defined in the student's kernel before the first check. It builds the student's node

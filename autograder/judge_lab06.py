@@ -12,7 +12,8 @@ sandbox, started by the judge (``Judgement.student_command``), never in the kern
   what it returns into the sandbox (the judge never unpickles it); the judge starts
   ``ros2 launch`` on a launch file that loads it (``lab06.pickled_description``:
   after ``SetParameter('use_sim_time', True)``), against a reference build of
-  ``robot_talk`` made in the sandbox, and judges from its own nodes the ROS graph,
+  ``robot_talk`` (the one ``share`` made for the grading run, read-only in the
+  sandbox; else one made there), and judges from its own nodes the ROS graph,
   the message counts on its own ``/clock``, and ``ros2 launch``'s exit code after one
   Ctrl-C.
 
@@ -260,26 +261,45 @@ def check_two_robots(j: Judgement) -> None:
                 "the LaunchDescription cannot be handed to `ros2 launch` (it is pickled "
                 f"to get there): {made['error']}. Use plain values in it, not functions."
             )
-        as_student(j, "reference", folder, {})
+        workspace = reference_workspace(folder, as_student(j, "reference", folder, {}))
+        print(f"[judge] the reference {lab06.PACKAGE}: {workspace}", flush=True)
         try:
-            counts, codes, code, lines = launch_two_robots(j, folder, description)
+            counts, codes, code, lines = launch_two_robots(j, folder, workspace, description)
             again = raced(codes, lines)  # rclpy's own race on Ctrl-C: once more
         except StopTimeout:  # a node stuck in Fast DDS's teardown hang (judge.py): once more
             again = True
         if again:
-            counts, codes, code, lines = launch_two_robots(j, folder, description)
+            counts, codes, code, lines = launch_two_robots(j, folder, workspace, description)
         lab06.assert_stopped_cleanly(codes, code != 0 and not any(codes.values()))
     lab06.TwoRobotsReport([], counts, SECONDS, codes, lines).assert_rates(RATES)
 
 
+def share(folder: Path) -> None:
+    """The reference ``robot_talk`` built once for a grading run (``judge.shared_env``):
+    every submission's try-it cells and two-robot launches use it, read-only, instead
+    of building their own (two colcon builds fewer per submission)."""
+    lab06.build_reference(folder / lab06.SHARED_REFERENCE)
+
+
+def reference_workspace(folder: str, report: dict[str, Any]) -> str:
+    """The workspace the ``reference`` run used: the run's shared build, or its own in
+    ``folder``; any other is an error of the grader's, never the student's."""
+    shared = os.environ.get(lab06.SHARED_ENV)
+    expected = {f"{folder}/ws"} | ({f"{shared}/{lab06.SHARED_REFERENCE}"} if shared else set())
+    workspace = str(report.get("workspace"))
+    if workspace not in expected:
+        raise RuntimeError(f"the reference build reported {workspace}, not one of {expected}")
+    return workspace
+
+
 def launch_two_robots(
-    j: Judgement, folder: str, description: str
+    j: Judgement, folder: str, workspace: str, description: str
 ) -> tuple[dict[str, int], dict[str, int], int, list[str]]:
     """``ros2 launch`` of the pickled description, judged and stopped with one Ctrl-C:
     messages per robot, each process's exit code, the launch's, and what it printed.
     It waits ``EXIT_GUARD_S`` after Ctrl-C before SIGTERM (a slow stop is no mistake)."""
     command = (
-        f"source {shlex.quote(folder)}/ws/install/setup.bash && "
+        f"source {shlex.quote(workspace)}/install/setup.bash && "
         f"ROSBOOK_LAB06_DESCRIPTION={shlex.quote(description)} "
         f"exec ros2 launch {shlex.quote(folder)}/{lab06.JUDGED_LAUNCH} "
         f"sigterm_timeout:={EXIT_GUARD_S:g}"

@@ -7,7 +7,8 @@ installation and the venv (read-only), the project's ``rosbook/`` and
 ``autograder/sandbox.py`` and ``cgroups.py`` (read-only; never the judge's check parameters,
 ``solutions/``, ``tests/``, gradebooks or other submissions), a
 private home and ``/tmp`` (tmpfs, ``Limits.disk`` bytes each), a copy of the notebook's
-folder in the home, and an environment built from an allow-list (``sandbox_env``).
+folder in the home, the grading run's shared folder if it has one (read-only,
+``SHARED_ENV``), and an environment built from an allow-list (``sandbox_env``).
 Limits on address space per process, processes (and threads), file size and disk are
 set inside the sandbox by ``python -m autograder.sandbox init`` before the command
 starts; the whole sandbox has a cgroup of its own (``autograder.cgroups``: a CPU quota,
@@ -79,6 +80,10 @@ SEED = "/run/rosbook/seed"
 #: A hang guard for bwrap's set-up (a few ms normally); hitting it says "timeout".
 SETUP_TIMEOUT = 60.0
 
+#: A folder the grader made once for a whole grading run (a lab's reference build:
+#: ``autograder.judge.shared_env``), seen read-only at its own path by every sandbox
+#: started with it in its environment. Nothing secret goes there.
+SHARED_ENV = "ROSBOOK_SHARED"
 #: Variables a sandboxed process may inherit (besides those ``sandbox_env`` sets).
 ALLOWED_ENV = (
     "ROS_DOMAIN_ID",
@@ -93,6 +98,7 @@ ALLOWED_ENV = (
     "ROSBOOK_RUN_TOKEN",
     "JPY_SESSION_NAME",
     "PYDEVD_DISABLE_FILE_VALIDATION",
+    SHARED_ENV,
 )
 
 
@@ -471,6 +477,8 @@ def prepare(
             argv += ro(f"/{name}", f"/{name}")
     for source in _ro_sources():
         argv += ro(source, source)
+    if env.get(SHARED_ENV):
+        argv += ro(env[SHARED_ENV], env[SHARED_ENV])
     for inside, host in _etc_files(private / "etc").items():
         argv += ro(host, inside)
     for inside, host in (files or {}).items():

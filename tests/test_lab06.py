@@ -3,6 +3,9 @@
 from __future__ import annotations
 
 import html
+import re
+import shutil
+import tempfile
 from pathlib import Path
 
 import nbformat
@@ -92,6 +95,40 @@ def test_missing_namespace_is_named_and_the_rest_scores(graded: tuple[dict, Path
         in page
     )
     assert "runs in the root namespace '/'" in page
+
+
+def test_the_class_launches_against_one_reference_build(graded: tuple[dict, Path]) -> None:
+    """The reference robot_talk every two-robot launch runs is built once for the grading
+    run (``judge_lab06.share``) and shared read-only, not built again per submission."""
+    rows, out = graded
+    used = set()
+    for student, _ in rows:
+        log = (out / "logs" / student / f"{LAB}.log").read_text()
+        used |= set(re.findall(r"\[judge\] the reference robot_talk: (\S+)", log))
+    assert len(used) == 1, used
+    assert used.pop().endswith(f"/shared/{LAB}/lab06_reference")
+
+
+def test_a_sandbox_given_the_shared_build_uses_it_and_builds_nothing(tmp_path: Path) -> None:
+    """A kernel's ``reference_workspace()`` in a sandbox of a run that shares the
+    reference build is that build, sourced from where it lies, read-only."""
+    from autograder.judge import shared_env
+    from tests.test_sandbox import run_inside
+
+    env = shared_env(LAB, tmp_path / "shared")
+    code = (
+        "from rosbook.labs import lab06\nws = lab06.reference_workspace()\n"
+        "print('workspace', ws.root)\nprint('sourced', ws.environ()['AMENT_PREFIX_PATH'])"
+    )
+    private = Path(tempfile.mkdtemp(prefix="rosbook-test-sandbox-"))  # nobody reaches it
+    try:
+        result = run_inside(code, tmp_path, private, **env)
+    finally:
+        shutil.rmtree(private, ignore_errors=True)
+    shared = f"{(tmp_path / 'shared').resolve()}/lab06_reference"
+    assert result.returncode == 0, result.stdout
+    assert f"workspace {shared}\n" in result.stdout
+    assert f"sourced {shared}/install/robot_talk" in result.stdout
 
 
 def test_feedback_never_shows_hidden_tests(graded: tuple[dict, Path]) -> None:

@@ -111,6 +111,34 @@ print("imports", rosbook.labs.probes.__name__)
     assert not (tmp_path / "lab" / "written.txt").exists()
 
 
+def test_the_runs_shared_folder_is_seen_read_only_and_only_it(tmp_path, private) -> None:
+    """A folder the grader shares with a run's sandboxes (``SHARED_ENV``: lab 6's
+    reference build) is seen at its own path, read-only, and its parent's other files
+    (the template's gradebook) are not."""
+    shared = tmp_path / "work" / "shared" / "lab"
+    shared.mkdir(parents=True)
+    (shared / "built.txt").write_text("the reference")
+    for path in (shared, shared / "built.txt"):  # writable by anyone: but for the mount
+        path.chmod(0o777)
+    (tmp_path / "work" / "gradebook.db").write_text("hidden tests")
+    code = f"""
+import os
+shared = os.environ[{sandbox.SHARED_ENV!r}]
+print('reads', open(os.path.join(shared, 'built.txt')).read())
+try:
+    open(os.path.join(shared, 'built.txt'), 'a')
+except OSError as exc:
+    print('read-only', exc.errno)
+print('gradebook', os.path.exists({str(tmp_path / "work" / "gradebook.db")!r}))
+"""
+    result = run_inside(code, tmp_path, private, **{sandbox.SHARED_ENV: str(shared)})
+    assert result.returncode == 0, result.stdout
+    assert "reads the reference" in result.stdout
+    assert "read-only 30" in result.stdout  # EROFS
+    assert "gradebook False" in result.stdout
+    assert (shared / "built.txt").read_text() == "the reference"
+
+
 def test_disk_memory_and_processes_are_limited(tmp_path, private) -> None:
     limits = sandbox.Limits(memory=1 << 30, processes=64, disk=32 << 20)
     code = """

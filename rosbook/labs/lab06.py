@@ -15,6 +15,7 @@ launch with ``ros2 launch`` on the description the kernel returned
 from __future__ import annotations
 
 import atexit
+import os
 import re
 import shutil
 import time
@@ -337,10 +338,27 @@ def add_reference_package(src: str | Path) -> Path:
     return root
 
 
+#: The folder a grader shares, read-only, with every sandbox of a grading run
+#: (``autograder.sandbox.SHARED_ENV``), and the reference build it makes there once for
+#: all the run's submissions (``autograder.judge_lab06.share``).
+SHARED_ENV = "ROSBOOK_SHARED"
+SHARED_REFERENCE = "lab06_reference"
+
+
+def shared_reference() -> Workspace | None:
+    """The reference build the grader shared with this process, if it has one."""
+    shared = os.environ.get(SHARED_ENV)
+    root = Path(shared) / SHARED_REFERENCE if shared else None
+    if root is None or not (root / "install" / "setup.bash").is_file():
+        return None
+    return Workspace(root)
+
+
 @cache
 def reference_workspace() -> Workspace:
-    """A workspace with the reference ``robot_talk``, built once per process."""
-    return build_reference(_scratch("lab06_ref_").root)
+    """A workspace with the reference ``robot_talk``: the grader's shared one when
+    graded, else one built once per process."""
+    return shared_reference() or build_reference(_scratch("lab06_ref_").root)
 
 
 def build_reference(root: str | Path) -> Workspace:
@@ -583,7 +601,8 @@ def main(argv: list[str] | None = None) -> int:
     on stdin: ``manifest`` builds ``robot_talk`` in ``FOLDER/ws`` from its
     ``package_xml`` and ``setup_py`` and reports the first failing check (``expected``:
     ``first_manifest_failure``'s keywords); ``reference`` builds the reference package
-    in ``FOLDER/ws`` and writes ``FOLDER/two_robots.launch.py``. A grader runs these as
+    in ``FOLDER/ws`` (unless the grader shared one: ``shared_reference``), reports the
+    workspace and writes ``FOLDER/two_robots.launch.py``. A grader runs these as
     the student (``setup.py`` is the student's code); the report repeats the ``nonce``
     it was given, which the student's code never sees."""
     import json
@@ -593,12 +612,12 @@ def main(argv: list[str] | None = None) -> int:
     request = json.load(sys.stdin)
     root = Path(folder)
     if what == "reference":
-        build_reference(root / "ws")
+        workspace = shared_reference() or build_reference(root / "ws")
         (root / JUDGED_LAUNCH).write_text(
             "from rosbook.labs import lab06\n\n\ndef generate_launch_description():\n"
             "    return lab06.pickled_description()\n"
         )
-        report: dict[str, object] = {"built": True}
+        report: dict[str, object] = {"built": True, "workspace": str(workspace.root)}
     else:
         built = build_package(request["package_xml"], request["setup_py"], root / "ws")
         report = {"failure": first_manifest_failure(built, **request["expected"])}
