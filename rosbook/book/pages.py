@@ -59,16 +59,29 @@ def build(out: Path, chapters: list[str] | None = None, timeout: float = 1800) -
 
 
 def failure_excerpt(log: str, context: int = 50) -> str:
-    """The failing cell and its error from a build log, else the log's end."""
-    lines = log.splitlines()
-    markers = (
-        "An error occurred while executing the following cell",  # the cell raised
-        "Executing notebook failed",  # myst-nb: a cell timed out, the kernel died
+    """The failing chapter, its cell and the error from a build log, else the log's end.
+
+    myst-nb's warning names the chapter ("Executing notebook failed", also for a cell
+    that timed out or a kernel that died); a cell that raised follows it after nbclient's
+    own traceback, as "An error occurred while executing the following cell". Without
+    the terminal's colours."""
+    lines = re.sub(r"\x1b\[[0-9;]*m", "", log).splitlines()
+    failed = next((i for i, ln in enumerate(lines) if "Executing notebook failed" in ln), None)
+    cell = next(
+        (
+            i
+            for i, ln in enumerate(lines)
+            if "An error occurred while executing the following cell" in ln
+            and (failed is None or i > failed)
+        ),
+        None,
     )
-    start = next((i for i, ln in enumerate(lines) if any(m in ln for m in markers)), None)
-    if start is None:
-        return "\n".join(lines[-60:])
-    return "\n".join(lines[start : start + context])
+    if cell is not None:
+        named = [lines[failed]] if failed is not None else []
+        return "\n".join(named + lines[cell : cell + context])
+    if failed is not None:
+        return "\n".join(lines[failed : failed + context])
+    return "\n".join(lines[-60:])
 
 
 @dataclass(frozen=True)
