@@ -108,8 +108,8 @@ def shared_env(assignment_id: str, folder: Path) -> dict[str, str]:
     try:
         share(folder)
     except Exception as exc:  # noqa: BLE001 - never a reason to stop a class's grading
-        print(f"{assignment_id}: nothing shared ({exc}); each submission builds its own",
-              file=sys.stderr, flush=True)  # fmt: skip
+        said = f"{assignment_id}: nothing shared ({exc}); each submission builds its own"
+        print(said, file=sys.stderr, flush=True)
         return {}
     return {sandbox.SHARED_ENV: str(folder)}
 

@@ -261,7 +261,7 @@ def check_two_robots(j: Judgement) -> None:
                 "the LaunchDescription cannot be handed to `ros2 launch` (it is pickled "
                 f"to get there): {made['error']}. Use plain values in it, not functions."
             )
-        workspace = reference_workspace(folder, as_student(j, "reference", folder, {}))
+        workspace = reported_workspace(folder, as_student(j, "reference", folder, {}))
         print(f"[judge] the reference {lab06.PACKAGE}: {workspace}", flush=True)
         try:
             counts, codes, code, lines = launch_two_robots(j, folder, workspace, description)
@@ -281,7 +281,7 @@ def share(folder: Path) -> None:
     lab06.build_reference(folder / lab06.SHARED_REFERENCE)
 
 
-def reference_workspace(folder: str, report: dict[str, Any]) -> str:
+def reported_workspace(folder: str, report: dict[str, Any]) -> str:
     """The workspace the ``reference`` run used: the run's shared build, or its own in
     ``folder``; any other is an error of the grader's, never the student's."""
     shared = os.environ.get(lab06.SHARED_ENV)

@@ -617,7 +617,7 @@ def main(argv: list[str] | None = None) -> int:
             "from rosbook.labs import lab06\n\n\ndef generate_launch_description():\n"
             "    return lab06.pickled_description()\n"
         )
-        report: dict[str, object] = {"built": True, "workspace": str(workspace.root)}
+        report: dict[str, object] = {"workspace": str(workspace.root)}
     else:
         built = build_package(request["package_xml"], request["setup_py"], root / "ws")
         report = {"failure": first_manifest_failure(built, **request["expected"])}
