@@ -114,3 +114,21 @@ def test_a_make_that_raised_is_tried_again_and_its_files_are_kept(
     assert (folder / "build.log").read_text() == "done"
     assert kept == folder.parent / f"{name}.failed-0" / "build.log"
     assert kept.read_text() == "the first attempt's log"
+
+
+def test_a_hung_test_fails_as_a_timeout_and_the_run_goes_on(tmp_path: Path) -> None:
+    # A test waiting forever for a lost answer must not stall the suite until CI's limit.
+    # The suite's own settings (pyproject.toml), with its limit cut to 2 s here.
+    assert PARALLEL is not None, "the Makefile's PARALLEL options"
+    (tmp_path / "test_hang.py").write_text(
+        "import time\n\ndef test_waits_forever():\n    time.sleep(60)\n\n"
+        "def test_after_it():\n    pass\n"
+    )
+    options = PARALLEL.group(1).replace("$(TEST_WORKERS)", "2").split()
+    done = subprocess.run(
+        [sys.executable, "-m", "pytest", "-p", "no:cacheprovider", "-o", "timeout=2",
+         "-c", str(ROOT / "pyproject.toml"), "--rootdir", str(tmp_path), *options, str(tmp_path)],
+        cwd=tmp_path, capture_output=True, text=True, timeout=300, check=False,
+    )  # fmt: skip
+    assert "1 failed, 1 passed" in done.stdout, done.stdout[-3000:] + done.stderr[-2000:]
+    assert "Timeout (>2.0s)" in done.stdout, done.stdout[-3000:]

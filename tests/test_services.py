@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import time
+import warnings
 
 import pytest
 from action_msgs.msg import GoalStatus
@@ -10,6 +11,7 @@ from rcl_interfaces.msg import SetParametersResult
 from rclpy.action import ActionServer
 from rclpy.node import Node
 from rclpy.parameter import Parameter
+from rclpy.qos import qos_profile_sensor_data, qos_profile_services_default
 from std_msgs.msg import Int64
 from std_srvs.srv import SetBool, Trigger
 from test_msgs.action import Fibonacci
@@ -347,3 +349,28 @@ def test_accepting_a_zero_rate_is_named_not_only_zero_division(session) -> None:
     probe = Probe("ticks", Int64)
     with pytest.raises(AssertionError, match="every value <= 0, zero included"):
         service_checks.assert_rate_follows(node, clock, probe)
+
+
+def test_a_server_waits_for_its_clients_reply_reader_before_it_drops_the_reply(session) -> None:
+    # A reply sent before the server has discovered the client's reply reader is
+    # dropped, and the caller waits forever; a busy machine widens that race. The
+    # book's Fast DDS profile makes a server wait up to 5 s for the reader (0.1 s by
+    # default). A client whose reply reader can never match (it asks for a reliable
+    # reply; the server offers best effort) shows the wait: the server gives up only then.
+    server = Node("lossy_server")
+    server.create_service(Trigger, "lossy", lambda _, r: r, qos_profile=qos_profile_sensor_data)
+    asker = Node("asker")
+    client = asker.create_client(Trigger, "lossy", qos_profile=qos_profile_services_default)
+    # one participant (one context): its endpoints match as they are made, and a client
+    # that can never hear its server is never "ready", so it calls at once
+    client.call_async(Trigger.Request())
+    start = time.monotonic()
+    with warnings.catch_warnings(record=True) as seen:  # rclpy warns that it dropped the reply
+        warnings.simplefilter("always")
+        dropped = session.spin_until(  # the limit only guards against a hang
+            lambda: any("client will not receive response" in str(w.message) for w in seen),
+            timeout=300.0,
+        )
+    waited = time.monotonic() - start
+    assert dropped, "timeout: the server neither answered nor dropped the reply"
+    assert waited >= 4.5, f"the server dropped the reply after {waited:.2f} s"
