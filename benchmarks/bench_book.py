@@ -6,7 +6,10 @@ Built twice in the same run: as ``make book`` builds it (chapters executing side
 Opened in headless Chromium over http on loopback, as a static host serves it (text
 gzip-compressed): the bytes the first page and the heaviest page transfer (targets:
 first page <= 1.2 MB, a page with 3D scenes <= 2 MB), and the time until a 3D scene
-has drawn its first frame, next to the time the same page took to load.
+has drawn its first frame, next to the time the same page took to load; and the
+processor time the browser spends on the page with the most animated scenes, scrolled
+so that none is on the screen, against one of them in view (target: off the screen
+<= 0.25 of in view: an animation off the screen is paused).
 """
 
 from __future__ import annotations
@@ -15,6 +18,7 @@ import os
 import tempfile
 import time
 from pathlib import Path
+from typing import Any
 
 from benchmarks import Figure
 from rosbook.book import pages as bookpages
@@ -91,6 +95,7 @@ def read(html: Path, site: str, browser: object) -> list[Figure]:
         Figure(f"heaviest page transferred ({heaviest})", weights[heaviest][0] / MB, "MB"),
         Figure(f"heaviest page uncompressed ({heaviest})", weights[heaviest][1] / MB, "MB"),
     ]
+    figures += animation_cpu(html, site, browser)
     if first_frames:
         first, load = max(first_frames), max(loads)
         figures += [
@@ -99,3 +104,93 @@ def read(html: Path, site: str, browser: object) -> list[Figure]:
             Figure("first frame / load event", first / load, "x"),
         ]
     return figures
+
+
+#: Seconds over which the browser's processor time is measured, each way.
+CPU_WINDOW_S = 5.0
+
+
+def browser_cpu_seconds() -> float:
+    """Processor seconds used so far by the Chromium processes this process started."""
+    parent: dict[int, int] = {}
+    names: dict[int, str] = {}
+    used: dict[int, float] = {}
+    tick = os.sysconf("SC_CLK_TCK")
+    for entry in Path("/proc").iterdir():
+        if entry.name.isdigit():
+            try:
+                stat = (entry / "stat").read_text()
+            except OSError:  # ended meanwhile
+                continue
+            name, fields = (
+                stat[stat.index("(") + 1 : stat.rindex(")")],
+                stat.rsplit(")", 1)[1].split(),
+            )
+            pid = int(entry.name)
+            parent[pid], names[pid] = int(fields[1]), name
+            used[pid] = (int(fields[11]) + int(fields[12])) / tick
+    me, total = os.getpid(), 0.0
+    for pid in used:
+        up = pid
+        while up in parent and up != me:
+            up = parent[up]
+        if up == me and "chrom" in names[pid]:
+            total += used[pid]
+    return total
+
+
+def _cores_used(page: Any) -> float:
+    start, before = time.monotonic(), browser_cpu_seconds()
+    page.wait_for_timeout(CPU_WINDOW_S * 1000)
+    return (browser_cpu_seconds() - before) / (time.monotonic() - start)
+
+
+def animation_cpu(html: Path, site: str, browser: object) -> list[Figure]:
+    """The browser's processor use (cores) on the page with the most animated scenes: at
+    the top of the page when no scene is in view there, at the bottom otherwise, and with
+    its first animated scene in view."""
+    animated: dict[str, list[int]] = {}
+    for path in html.rglob("*.html"):
+        scenes = bookpages.scene_commands(path.read_text())
+        found = [k for k, s in enumerate(scenes) if any(c["type"] == "set_animation" for c in s)]
+        if found:
+            animated[str(path.relative_to(html))] = found
+    if not animated:
+        return []
+    page_name = max(animated, key=lambda p: len(animated[p]))
+    with visit(browser, site + page_name) as seen:
+        page = seen.page
+        scenes = scene_ids(page)
+        for scene in scenes:
+            wait_for_first_frame(page, scene)
+        off = page.evaluate(
+            """ids => {
+                const shown = () => ids.some(id => {
+                    const r = document.getElementById(id).getBoundingClientRect();
+                    return r.bottom > 0 && r.top < window.innerHeight;
+                });
+                window.scrollTo(0, 0);
+                if (shown()) { window.scrollTo(0, document.body.scrollHeight); }
+                return !shown();
+            }""",
+            scenes,
+        )
+        if not off:
+            print(f"   {page_name}: no scroll leaves every scene off the screen")
+            return []
+        page.wait_for_function(  # every scene has heard that it is off the screen
+            "ids => ids.every(id => document.getElementById(id).dataset.onScreen === '0')",
+            arg=scenes,
+        )
+        idle = _cores_used(page)
+        first = scenes[animated[page_name][0]]
+        page.locator(f"#{first}").scroll_into_view_if_needed()
+        page.wait_for_function(
+            "id => document.getElementById(id).dataset.onScreen === '1'", arg=first
+        )
+        shown = _cores_used(page)
+    return [
+        Figure(f"browser on {page_name}, no scene on the screen", idle, "cores"),
+        Figure("same page, one animated scene in view", shown, "cores"),
+        Figure("no scene on the screen / one in view (target <= 0.25)", idle / shown, "x"),
+    ]

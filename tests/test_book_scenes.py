@@ -162,6 +162,75 @@ def test_animated_scenes_play_and_every_scene_rotates_when_dragged(
     assert animated, "no animated scene in the book"
 
 
+def _scroll_off_screen(page: object, scene: str) -> None:
+    """Scroll until the box of ``scene`` is wholly above or below the window."""
+    off = page.evaluate(
+        f"""() => {{
+            const box = document.getElementById('{scene}');
+            const off = () => {{
+                const r = box.getBoundingClientRect();
+                return r.bottom <= 0 || r.top >= window.innerHeight;
+            }};
+            window.scrollBy(0, box.getBoundingClientRect().bottom + 1);
+            if (!off()) {{ window.scrollTo(0, 0); }}
+            return off();
+        }}"""
+    )
+    assert off, f"{scene}: the page cannot be scrolled to leave it off the screen"
+
+
+def test_an_animation_off_the_screen_draws_nothing_and_plays_on_when_back(
+    built_book: Path, site: str, browser: object
+) -> None:
+    """A looping drive drew 60 frames a second off the screen (two cores' worth in software
+    WebGL for a page of two): now it is paused there, draws nothing and stays at its time,
+    and plays again when scrolled back; a pause by the reader stays a pause."""
+    found = [
+        (name, k)
+        for name in scene_pages(built_book)
+        for k, drawn in enumerate(bookpages.scene_commands((built_book / name).read_text()))
+        if any(c["type"] == "set_animation" for c in drawn)
+    ]
+    assert found, "no animated scene in the book"
+    name, k = found[0]
+    with visit(browser, site + name) as seen:
+        page = seen.page
+        scene = scene_ids(page)[k]
+        viewer, box = _viewer(scene), f"document.getElementById('{scene}')"
+        page.locator(f"#{scene}").scroll_into_view_if_needed()
+        wait_for_first_frame(page, scene)
+        start = page.evaluate(f"() => {viewer}.animator.time")
+        page.wait_for_function(
+            f"() => {viewer}.animator.playing && {viewer}.animator.time !== {start}",
+            timeout=120_000,
+        )
+        _scroll_off_screen(page, scene)
+        page.wait_for_function(
+            f"() => {box}.dataset.onScreen === '0' && !{viewer}.animator.playing",
+            timeout=120_000,
+        )
+        frames, at = page.evaluate(f"() => [+{box}.dataset.frames, {viewer}.animator.time]")
+        page.wait_for_timeout(1500)  # off the screen nothing is drawn, however long
+        assert page.evaluate(f"() => [+{box}.dataset.frames, {viewer}.animator.time]") == [
+            frames,
+            at,
+        ], f"{name} {scene}: off the screen it went on drawing or playing"
+        page.locator(f"#{scene}").scroll_into_view_if_needed()
+        page.wait_for_function(
+            f"() => {viewer}.animator.playing && +{box}.dataset.frames > {frames}"
+            f" && {viewer}.animator.time !== {at}",
+            timeout=120_000,
+        )
+        page.evaluate(f"() => {viewer}.animator.pause()")  # the reader's pause
+        _scroll_off_screen(page, scene)
+        page.wait_for_function(f"() => {box}.dataset.onScreen === '0'", timeout=120_000)
+        page.locator(f"#{scene}").scroll_into_view_if_needed()
+        page.wait_for_function(f"() => {box}.dataset.onScreen === '1'", timeout=120_000)
+        assert not page.evaluate(f"() => {viewer}.animator.playing"), (
+            f"{name} {scene}: a paused animation started again when scrolled back"
+        )
+
+
 @pytest.mark.parametrize("size", SIZES)
 def test_scene_controls_leave_the_view_visible(
     built_book: Path, site: str, browser: object, size: str
