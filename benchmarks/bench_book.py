@@ -20,10 +20,17 @@ import time
 from pathlib import Path
 from typing import Any
 
+from autograder.sandbox import process_tree
 from benchmarks import Figure
 from rosbook.book import pages as bookpages
 from rosbook.book.chromium import chromium_path, launch
-from rosbook.book.site import scene_ids, serve, visit, wait_for_first_frame
+from rosbook.book.site import (
+    scene_ids,
+    scroll_off_screen,
+    serve,
+    visit,
+    wait_for_first_frame,
+)
 from rosbook.book.sphinx_execute import JOBS_VARIABLE
 
 FIRST_PAGE = "book/intro.html"
@@ -112,30 +119,15 @@ CPU_WINDOW_S = 5.0
 
 def browser_cpu_seconds() -> float:
     """Processor seconds used so far by the Chromium processes this process started."""
-    parent: dict[int, int] = {}
-    names: dict[int, str] = {}
-    used: dict[int, float] = {}
-    tick = os.sysconf("SC_CLK_TCK")
-    for entry in Path("/proc").iterdir():
-        if entry.name.isdigit():
-            try:
-                stat = (entry / "stat").read_text()
-            except OSError:  # ended meanwhile
-                continue
-            name, fields = (
-                stat[stat.index("(") + 1 : stat.rindex(")")],
-                stat.rsplit(")", 1)[1].split(),
-            )
-            pid = int(entry.name)
-            parent[pid], names[pid] = int(fields[1]), name
-            used[pid] = (int(fields[11]) + int(fields[12])) / tick
-    me, total = os.getpid(), 0.0
-    for pid in used:
-        up = pid
-        while up in parent and up != me:
-            up = parent[up]
-        if up == me and "chrom" in names[pid]:
-            total += used[pid]
+    tick, total = os.sysconf("SC_CLK_TCK"), 0.0
+    for pid in process_tree(os.getpid()):
+        try:
+            stat = Path(f"/proc/{pid}/stat").read_text()
+        except OSError:  # ended meanwhile
+            continue
+        fields = stat.rsplit(")", 1)[1].split()
+        if "chrom" in stat[stat.index("(") + 1 : stat.rindex(")")]:
+            total += (int(fields[11]) + int(fields[12])) / tick
     return total
 
 
@@ -163,18 +155,7 @@ def animation_cpu(html: Path, site: str, browser: object) -> list[Figure]:
         scenes = scene_ids(page)
         for scene in scenes:
             wait_for_first_frame(page, scene)
-        off = page.evaluate(
-            """ids => {
-                const shown = () => ids.some(id => {
-                    const r = document.getElementById(id).getBoundingClientRect();
-                    return r.bottom > 0 && r.top < window.innerHeight;
-                });
-                window.scrollTo(0, 0);
-                if (shown()) { window.scrollTo(0, document.body.scrollHeight); }
-                return !shown();
-            }""",
-            scenes,
-        )
+        off = scroll_off_screen(page, scenes)
         if not off:
             print(f"   {page_name}: no scroll leaves every scene off the screen")
             return []

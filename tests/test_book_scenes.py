@@ -16,7 +16,7 @@ import pytest
 from PIL import Image
 
 from rosbook.book import pages as bookpages
-from rosbook.book.site import scene_ids, visit, wait_for_first_frame
+from rosbook.book.site import scene_ids, scroll_off_screen, visit, wait_for_first_frame
 from rosbook.book.stills import PRINT_CLASS, STILL_CLASS
 from tests.test_book_browser import SIZES, robots_in, scene_pages
 
@@ -163,19 +163,7 @@ def test_animated_scenes_play_and_every_scene_rotates_when_dragged(
 
 
 def _scroll_off_screen(page: object, scene: str) -> None:
-    """Scroll until the box of ``scene`` is wholly above or below the window."""
-    off = page.evaluate(
-        f"""() => {{
-            const box = document.getElementById('{scene}');
-            const off = () => {{
-                const r = box.getBoundingClientRect();
-                return r.bottom <= 0 || r.top >= window.innerHeight;
-            }};
-            window.scrollBy(0, box.getBoundingClientRect().bottom + 1);
-            if (!off()) {{ window.scrollTo(0, 0); }}
-            return off();
-        }}"""
-    )
+    off = scroll_off_screen(page, [scene])
     assert off, f"{scene}: the page cannot be scrolled to leave it off the screen"
 
 

@@ -226,3 +226,20 @@ def wait_for_first_frame(page: Any, scene: str, timeout_ms: int = LOAD_TIMEOUT_M
         arg=scene,
         timeout=timeout_ms,
     )
+
+
+def scroll_off_screen(page: Any, scenes: list[str]) -> bool:
+    """Scroll the page to its top, or else to its bottom, so that none of ``scenes`` is
+    on the screen; whether that worked (a short page may show one wherever it is)."""
+    return page.evaluate(
+        """ids => {
+            const shown = () => ids.some(id => {
+                const r = document.getElementById(id).getBoundingClientRect();
+                return r.bottom > 0 && r.top < window.innerHeight;
+            });
+            window.scrollTo(0, 0);
+            if (shown()) { window.scrollTo(0, document.body.scrollHeight); }
+            return !shown();
+        }""",
+        scenes,
+    )
