@@ -23,9 +23,9 @@ pytestmark = pytest.mark.filterwarnings("ignore::DeprecationWarning")
 def servers() -> Iterator[subprocess.Popen]:
     """``rosbook.demos.nodes`` (clock_server, countdown_server) as a process of its own."""
     process = subprocess.Popen(
-        [sys.executable, "-m", "rosbook.demos.nodes"],
+        [sys.executable, "-X", "faulthandler", "-m", "rosbook.demos.nodes"],
         stdout=subprocess.DEVNULL,
-        stderr=subprocess.PIPE,
+        stderr=subprocess.PIPE,  # a crash's Python stack (faulthandler) shows in a failure
         text=True,
     )
     # The commands report the graph as it is: let the servers be up first, and the
