@@ -511,8 +511,9 @@ def grade_class(
                 if not (resume and journal.graded(t.student_id, t.assignment_id, t.digest))
             ]
             # A worker takes seconds to import nbgrader: the local ones start now and
-            # import while the labs generate (on another core when there is one).
-            slots = [] if scheduler or not todo else start_slots(workers)
+            # import while the labs generate (on another core when there is one); no
+            # more of them than there are submissions to grade.
+            slots = [] if scheduler or not todo else start_slots(min(workers, len(todo)))
             try:
                 # generating a lab takes seconds: only the labs with something to grade
                 assignments = {
@@ -522,7 +523,7 @@ def grade_class(
                 for slot in slots:
                     slot.stop()
                 raise
-            shown = Progress(len(todo), len(tasks) - len(todo), progress)
+            shown = Progress(len(todo), len(tasks) - len(todo), progress, len(slots))
 
             def saved(graded: Graded, task: Task) -> None:
                 save(out, graded, assignments[task.assignment_id].notebook, task.digest, journal)

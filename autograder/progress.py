@@ -24,7 +24,13 @@ def duration(seconds: float) -> str:
 
 
 class Progress:
-    def __init__(self, total: int, skipped: int = 0, stream: TextIO | None = None) -> None:
+    def __init__(
+        self,
+        total: int,
+        skipped: int = 0,
+        stream: TextIO | None = None,
+        at_once: int | None = None,
+    ) -> None:
         self.stream = stream if stream is not None else sys.stderr
         self.live = self.stream.isatty()
         self.total = total  # submissions to grade in this run
@@ -33,7 +39,7 @@ class Progress:
         self.started = time.monotonic()
         if skipped:
             self._say(f"{skipped} submission(s) already graded and unchanged: kept")
-        self._say(f"grading {total} submission(s)")
+        self._say(f"grading {total} submission(s)" + (f", {at_once} at a time" if at_once else ""))
 
     def _say(self, line: str) -> None:
         if self.live:

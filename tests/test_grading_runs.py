@@ -90,7 +90,7 @@ def test_progress_is_one_plain_line_per_submission_when_not_a_terminal(
     done = run_grade(quick_class, tmp_path / "out", "--workers", "1")  # in order
     assert done.returncode == 0, done.stderr
     lines = done.stderr.splitlines()
-    assert "grading 2 submission(s)" in lines
+    assert "grading 2 submission(s), 1 at a time" in lines
     assert any(ln.startswith("[1/2] 1 not ok") and "carol" in ln for ln in lines), lines
     assert any(ln.startswith("[2/2] 2 not ok") and "dave" in ln for ln in lines), lines
     assert "\r" not in done.stderr and "\x1b" not in done.stderr
@@ -150,8 +150,10 @@ def test_regrading_one_student_leaves_the_others_rows(quick_class: Path, tmp_pat
     assert run_grade(quick_class, out).returncode == 0
     before = report(out)
     submit(quick_class, "dave", LAB, "now a broken file")  # would change dave's row
-    again = run_grade(quick_class, out, "--student", "carol")
+    again = run_grade(quick_class, out, "--student", "carol", "--workers", "2")
     assert again.returncode == 0, again.stderr
+    # one submission to grade: one worker started (of the two asked for), not one idle
+    assert "grading 1 submission(s), 1 at a time" in again.stderr.splitlines()
     after = report(out)
     assert after["dave"] == before["dave"] and after["dave"]["status"] == "missing"
     assert len(csv_rows(out)) == 2 and after["carol"]["status"] == "error"

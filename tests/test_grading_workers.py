@@ -23,7 +23,8 @@ def test_workers_start_before_the_labs_generate_and_stop_when_that_fails(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     submissions = tmp_path / "submitted"
-    submit(submissions, "erin", LAB, answered(LAB))
+    for student in ("erin", "frank"):  # two to grade: two workers start
+        submit(submissions, student, LAB, answered(LAB))
     started: list[subprocess.Popen[bytes]] = []
     real_start = grade.WorkerSlot.start
 
