@@ -166,6 +166,31 @@ def built_book(tmp_path_factory: pytest.TempPathFactory) -> Path:
     return once_per_run(tmp_path_factory, "book", build) / "_build" / "html"
 
 
+@pytest.fixture(scope="session")
+def round_trip(tmp_path_factory: pytest.TempPathFactory) -> tuple[dict, Path]:
+    """Every lab's release answered as its solution ("right": what a student who solved
+    the lab submits) and left as released ("untouched"), graded in one class once per
+    test run (``once_per_run``): the instructor CI's round trip (test_labs.py), and each
+    lab's right and untouched rows beside its own class (``labtools.with_round_trip``),
+    so that no file grades them again. Returns the rows by (student, lab) and the out
+    folder."""
+    import nbformat
+
+    from autograder.config import lab_ids
+    from tests.labtools import answered, grade, grade_rows, notebook_path, submit
+
+    def make(folder: Path) -> None:
+        for lab in lab_ids():
+            submit(folder / "submissions", "right", lab, answered(lab))
+            submit(folder / "submissions", "untouched", lab, nbformat.read(notebook_path(lab), 4))
+        # no submission here hangs: a generous cell guard, so a loaded machine never
+        # times out
+        grade(folder / "submissions", folder / "out", workers=2, cell_timeout=600)
+
+    out = once_per_run(tmp_path_factory, "round_trip", make) / "out"
+    return grade_rows(out), out
+
+
 @pytest.fixture(scope="module")
 def site(built_book: Path) -> Iterator[str]:
     """The built book served over http on loopback (the browser tests' site)."""

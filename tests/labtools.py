@@ -10,6 +10,7 @@ from __future__ import annotations
 import copy
 import csv
 import re
+import shutil
 from pathlib import Path
 
 import nbformat
@@ -93,8 +94,32 @@ def submit(
 def grade(submissions: Path, out: Path, **kwargs: object) -> dict[tuple[str, str], dict[str, str]]:
     """Grade ``submissions``; the grades.csv rows by (student, lab)."""
     grade_class(submissions, out, **kwargs)  # type: ignore[arg-type]
+    return grade_rows(out)
+
+
+def grade_rows(out: Path) -> dict[tuple[str, str], dict[str, str]]:
+    """The rows of ``out``'s grades.csv by (student, lab)."""
     with open(out / "grades.csv") as f:
         return {(r["student_id"], r["assignment_id"]): r for r in csv.DictReader(f)}
+
+
+def with_round_trip(
+    graded: tuple[dict, Path],
+    round_trip: tuple[dict, Path],
+    lab: str,
+    students: tuple[str, ...] = ("right",),
+) -> tuple[dict, Path]:
+    """A lab's class (its rows and out folder) with the rows and feedback pages of
+    ``students`` as the run's round trip graded them (the ``round_trip`` fixture: every
+    lab's right and untouched submissions, graded once for every test file)."""
+    rows, out = graded
+    shared_rows, shared_out = round_trip
+    for student in students:
+        rows[(student, lab)] = shared_rows[(student, lab)]
+        page = Path("feedback") / student / lab / f"{lab}.html"
+        (out / page).parent.mkdir(parents=True, exist_ok=True)
+        shutil.copy(shared_out / page, out / page)
+    return rows, out
 
 
 def assert_counted_from_zero(log: str) -> None:

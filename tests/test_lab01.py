@@ -22,6 +22,7 @@ from tests.labtools import (
     replace_in_answer,
     submit,
     with_cell,
+    with_round_trip,
 )
 
 CELL_TIMEOUT_S = 30
@@ -62,10 +63,11 @@ def live_marked_processes() -> list[int]:
 
 
 @pytest.fixture(scope="module")
-def graded(tmp_path_factory: pytest.TempPathFactory) -> tuple[dict, Path]:
+def graded(
+    tmp_path_factory: pytest.TempPathFactory, round_trip: tuple[dict, Path]
+) -> tuple[dict, Path]:
     root = tmp_path_factory.mktemp("submissions")
-    right = answered(LAB)
-    submit(root, "right", LAB, right)
+    right = answered(LAB)  # graded in the round trip (with_round_trip)
     submit(root, "wrong", LAB, wrong())
     submit(root, "tampered", LAB, with_cell(right, "test_doubler", "pass"))
     cheat = "checks.assert_sequence = lambda *args, **kwargs: None  # make every check pass"
@@ -79,7 +81,7 @@ def graded(tmp_path_factory: pytest.TempPathFactory) -> tuple[dict, Path]:
     # The limit that stops the endless cell; generous, so that correct cells finish in
     # it on a busy machine.
     rows = grade(root, out, assignment_id=LAB, workers=2, cell_timeout=CELL_TIMEOUT_S)
-    return rows, out
+    return with_round_trip((rows, out), round_trip, LAB)
 
 
 def row(graded: tuple[dict, Path], student: str) -> dict:

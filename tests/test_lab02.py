@@ -10,7 +10,7 @@ import nbformat
 import pytest
 
 from autograder.check import check, report
-from tests.labtools import answered, feedback, grade, replace_in_answer, submit
+from tests.labtools import answered, feedback, grade, replace_in_answer, submit, with_round_trip
 
 #: The whole lab graded as a class: minutes (`make test-fast` leaves it out).
 pytestmark = pytest.mark.slow
@@ -51,15 +51,17 @@ def durability_rule_reversed() -> nbformat.NotebookNode:
 
 
 @pytest.fixture(scope="module")
-def graded(tmp_path_factory: pytest.TempPathFactory) -> tuple[dict, Path]:
+def graded(
+    tmp_path_factory: pytest.TempPathFactory, round_trip: tuple[dict, Path]
+) -> tuple[dict, Path]:
     root = tmp_path_factory.mktemp("submissions")
-    submit(root, "right", LAB, answered(LAB))
     submit(root, "volatile_map", LAB, volatile_map_publisher())
     submit(root, "reliable_scan", LAB, reliable_scan_subscription())
     submit(root, "off_by_one", LAB, off_by_one_model())
     submit(root, "no_deadline_rule", LAB, durability_rule_reversed())
     out = tmp_path_factory.mktemp("out")
-    return grade(root, out, assignment_id=LAB, workers=2, cell_timeout=20), out
+    rows = grade(root, out, assignment_id=LAB, workers=2, cell_timeout=20)
+    return with_round_trip((rows, out), round_trip, LAB)
 
 
 def score(graded: tuple[dict, Path], student: str) -> tuple[str, str, str]:

@@ -9,7 +9,14 @@ from pathlib import Path
 import nbformat
 import pytest
 
-from tests.labtools import answered, feedback, grade, notebook_path, replace_in_answer, submit
+from tests.labtools import (
+    answered,
+    feedback,
+    grade,
+    replace_in_answer,
+    submit,
+    with_round_trip,
+)
 
 #: The whole lab graded as a class: minutes (`make test-fast` leaves it out).
 pytestmark = pytest.mark.slow
@@ -64,15 +71,15 @@ def wrong() -> nbformat.NotebookNode:
 
 
 @pytest.fixture(scope="module")
-def graded(tmp_path_factory: pytest.TempPathFactory) -> tuple[dict, Path]:
+def graded(
+    tmp_path_factory: pytest.TempPathFactory, round_trip: tuple[dict, Path]
+) -> tuple[dict, Path]:
     root = tmp_path_factory.mktemp("submissions")
-    submit(root, "right", LAB, answered(LAB))
-    submit(root, "untouched", LAB, nbformat.read(notebook_path(LAB), as_version=4))
     submit(root, "sync_call", LAB, synchronous_call())
     submit(root, "wrong", LAB, wrong())
     out = tmp_path_factory.mktemp("out")
     rows = grade(root, out, assignment_id=LAB, workers=2, cell_timeout=15)
-    return rows, out
+    return with_round_trip((rows, out), round_trip, LAB, ("right", "untouched"))
 
 
 def text(graded: tuple[dict, Path], student: str) -> str:

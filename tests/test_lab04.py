@@ -8,7 +8,7 @@ from pathlib import Path
 import nbformat
 import pytest
 
-from tests.labtools import answered, grade, replace_in_answer, submit
+from tests.labtools import answered, grade, replace_in_answer, submit, with_round_trip
 from tests.labtools import feedback as feedback_html
 
 #: The whole lab graded as a class: minutes (`make test-fast` leaves it out).
@@ -56,15 +56,16 @@ def parent_child_swapped() -> nbformat.NotebookNode:
 
 
 @pytest.fixture(scope="module")
-def graded(tmp_path_factory: pytest.TempPathFactory) -> tuple[dict, Path]:
+def graded(
+    tmp_path_factory: pytest.TempPathFactory, round_trip: tuple[dict, Path]
+) -> tuple[dict, Path]:
     root = tmp_path_factory.mktemp("submissions")
-    submit(root, "right", LAB, answered(LAB))
     submit(root, "axis_wrong", LAB, axis_wrong())
     submit(root, "joint_fixed", LAB, joint_fixed())
     submit(root, "swapped", LAB, parent_child_swapped())
     out = tmp_path_factory.mktemp("out")
     rows = grade(root, out, assignment_id=LAB, workers=2, cell_timeout=30)
-    return rows, out
+    return with_round_trip((rows, out), round_trip, LAB)
 
 
 def feedback(out: Path, student: str, lab: str) -> str:
