@@ -67,7 +67,7 @@ def graded(
     tmp_path_factory: pytest.TempPathFactory, round_trip: tuple[dict, Path]
 ) -> tuple[dict, Path]:
     root = tmp_path_factory.mktemp("submissions")
-    right = answered(LAB)  # graded in the round trip (with_round_trip)
+    right = answered(LAB)  # the base of "tampered"; "right" is the round trip's row
     submit(root, "wrong", LAB, wrong())
     submit(root, "tampered", LAB, with_cell(right, "test_doubler", "pass"))
     cheat = "checks.assert_sequence = lambda *args, **kwargs: None  # make every check pass"
