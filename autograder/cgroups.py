@@ -184,6 +184,9 @@ def _keyed(path: Path) -> dict[str, int]:
 
 
 def _remove(folders: list[Path]) -> None:
+    # with the cgroups made inside them (a grader run in one makes its sandboxes' there),
+    # the deepest first
+    folders = sorted({n for f in folders for n in f.glob("**/")}, key=lambda p: -len(p.parts))
     deadline = time.monotonic() + REMOVE_TIMEOUT
     for folder in folders:
         kill = folder / "cgroup.kill"
@@ -258,17 +261,35 @@ def _v2_parent(mount: Path, path: str) -> tuple[Path | None, str]:
 
 
 def _limit_v2(folder: Path, cpus: float, ram: int, processes: int) -> None:
-    _write(folder / "cpu.max", f"{max(1000, int(cpus * PERIOD_US))} {PERIOD_US}")
+    _write(folder / "cpu.max", f"{_quota(folder, cpus)} {PERIOD_US}")
     _write(folder / "memory.max", str(ram))
     with suppress(FileNotFoundError):  # no swap accounting: nothing to limit
         _write(folder / "memory.swap.max", "0")
     _write(folder / "pids.max", str(processes))
 
 
+def _quota(folder: Path, cpus: float) -> int:
+    """The CPU quota for ``cpus``, at most what the cgroups above allow (a grader in a
+    container or pod with a CPU limit): cgroup v1 refuses a child more than its parent,
+    and in v2 the parent's limit holds anyway (so ``limits`` says what holds)."""
+    quota = max(1000, int(cpus * PERIOD_US))
+    for above in folder.parents:
+        if (above / "cpu.max").exists():
+            limit, period = (above / "cpu.max").read_text().split()
+        elif (above / "cpu.cfs_quota_us").exists():
+            limit = (above / "cpu.cfs_quota_us").read_text().strip()
+            period = (above / "cpu.cfs_period_us").read_text()
+        else:  # past the hierarchy's root
+            break
+        if limit not in ("max", "-1"):
+            quota = min(quota, int(limit) * PERIOD_US // int(period))
+    return quota
+
+
 def _limit_v1(folders: dict[str, Path], cpus: float, ram: int, processes: int) -> None:
     if "cpu" in folders:
         _write(folders["cpu"] / "cpu.cfs_period_us", str(PERIOD_US))
-        _write(folders["cpu"] / "cpu.cfs_quota_us", str(max(1000, int(cpus * PERIOD_US))))
+        _write(folders["cpu"] / "cpu.cfs_quota_us", str(_quota(folders["cpu"], cpus)))
     if "memory" in folders:
         _write(folders["memory"] / "memory.limit_in_bytes", str(ram))
         with suppress(FileNotFoundError):  # swap accounting off: no swap to count

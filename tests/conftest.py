@@ -19,7 +19,7 @@ from rosbook.runtime.session import Session, ros
 
 #: Fixtures that take minutes or load the machine: the whole book built, a browser, a
 #: lab class graded (also a small one, ``quick_class``), a colcon workspace built, the
-#: CLI run beside busy processes.
+#: CLI run on a slow machine.
 SLOW_FIXTURES = {
     "built_book",
     "browser",

@@ -212,6 +212,38 @@ def test_a_program_entered_into_a_sandbox_joins_its_cgroup(tmp_path, private, wr
             ended(proc, group)
 
 
+def test_cgroups_made_inside_a_smaller_one_get_its_quota_and_go_with_it(writable) -> None:
+    """A grader run inside a cgroup with a CPU quota (a container's or a pod's; the slow
+    machine of tests/slowdown.py) makes its sandboxes' cgroups in it: one asked for more
+    CPU than the outer allows is made with the outer's quota (cgroup v1 refused it: every
+    submission was an error), and removing the outer ends their processes and removes
+    them too, at once (not after the removal's hang guard)."""
+    outer = cgroups.create("outer", 0.25, 1 << 30, 64)
+    assert outer is not None
+    inside = [str(d) for d in outer.directories()]
+    child = subprocess.Popen(
+        [sys.executable, "-c", "from autograder import cgroups\n"
+         "g = cgroups.create('inner', 1.0, 1 << 29, 32)\n"
+         "cgroups.join([str(d) for d in g.directories()])\n"
+         "print(g.limits()[0], g.directories(), flush=True)\ninput()"],
+        preexec_fn=lambda: cgroups.join(inside), stdin=subprocess.PIPE, stdout=subprocess.PIPE,
+        text=True,
+    )  # fmt: skip
+    try:
+        assert child.stdout is not None
+        made = child.stdout.readline()
+        assert made.startswith("0.25 "), made  # the outer's quota, not the 1.0 asked for
+        assert all(made.count(d) == 1 for d in inside), (made, inside)  # made inside
+        started = time.monotonic()
+        outer.remove()
+        assert time.monotonic() - started < cgroups.REMOVE_TIMEOUT
+        assert child.wait(timeout=GUARD) == -9  # killed with its cgroup
+        assert not any(Path(d).exists() for d in inside)
+    finally:
+        child.kill()
+        child.wait()
+
+
 def test_without_cgroups_the_missing_limits_and_the_fix_are_said_once(tmp_path, private) -> None:
     """Cgroups that cannot be written (here: read-only, in a sandbox): no cgroup, the
     rlimits stay, and the grader says once which limits are missing and the fix."""

@@ -18,7 +18,7 @@ import pytest
 
 from rosbook import ros
 from rosbook.runtime import graph
-from rosbook.runtime.stress import busy_processes, cores
+from tests.slowdown import slow_machine
 
 TALKER = textwrap.dedent(
     """
@@ -205,8 +205,8 @@ def test_ros2_console_script_is_installed() -> None:
     assert ros2.exists(), "pip install -e . should install the ros2 console script"
 
 
-#: Asked of the live talker with the CPU oversubscribed (two busy processes per core):
-#: the answers must be the same as on an idle machine, whatever the time they take.
+#: Asked of the live talker on a slow machine (tests/slowdown.py): the answers must be
+#: the same as on an idle machine, whatever the time they take.
 UNDER_LOAD = {
     "topic info -v": ["topic", "info", "-v", "/chatter"],
     "node info": ["node", "info", "/talker"],
@@ -219,13 +219,14 @@ UNDER_LOAD = {
 
 @pytest.fixture(scope="module")
 def loaded_runs(runs: dict) -> dict[str, subprocess.CompletedProcess[str]]:
-    """Each command of UNDER_LOAD run cold, one at a time, beside busy processes,
-    against the talker that ``runs`` keeps alive."""
+    """Each command of UNDER_LOAD run cold, one at a time, on a slow machine, against
+    the talker that ``runs`` keeps alive."""
     results = {}
-    with busy_processes(2 * cores()):
+    with slow_machine() as inside:
         for name, argv in UNDER_LOAD.items():
             results[name] = subprocess.run(
                 [sys.executable, "-m", "rosbook.cli", *argv],
+                preexec_fn=inside,
                 capture_output=True,
                 text=True,
                 timeout=120,
