@@ -63,103 +63,137 @@ def _show_robots(page: object, scene: str, visuals: list[list[str]], visible: bo
     )
 
 
-@pytest.mark.parametrize("size", SIZES)
-def test_every_scene_shows_its_robot_inside_the_view(
-    built_book: Path, site: str, browser: object, size: str
-) -> None:
+def _in_view(page: object, scene: str, bodies: list[list[str]], where: str) -> list[str]:
+    """What is wrong with the robot's place in the view, at the start and end of its
+    animation: the robot's pixels are those that change when its body is hidden."""
+    problems = []
+    for at in (0.0, 1.0):
+        _still(page, scene, at)
+        shown = _box_png(page, scene)
+        _show_robots(page, scene, bodies, False)
+        hidden = _box_png(page, scene)
+        _show_robots(page, scene, bodies, True)
+        rows, cols = np.nonzero(np.abs(shown - hidden).sum(axis=2) > 30)
+        said = f"{where}, animation at {at}"
+        if len(rows) <= 200:
+            problems.append(f"{said}: the robot is not in view ({len(rows)} px)")
+            continue
+        height, width = shown.shape[:2]
+        if not (rows.min() > 0 and cols.min() > 0):
+            problems.append(f"{said}: the robot is cut at the top or left edge")
+        if not (rows.max() < height - 1 and cols.max() < width - 1):
+            problems.append(f"{said}: the robot is cut at the bottom or right edge")
+    return problems
+
+
+def _plays(page: object, scene: str, where: str) -> list[str]:
+    """What is wrong with an animated scene's animation (none: it plays and moves the robot)."""
+    # It plays on its own: the animator's clock moves (an event, at any speed).
+    start = page.evaluate(f"() => {_viewer(scene)}.animator.time")
+    page.wait_for_function(
+        f"() => {_viewer(scene)}.animator.playing && {_viewer(scene)}.animator.time !== {start}",
+        timeout=120_000,
+    )
+    # And what it plays moves the robot: a later frame differs from its first (stills, so
+    # a slow machine's late first screenshot cannot hide it; a wave is back where it
+    # started half way, so look at three points).
+    _still(page, scene, 0.0)
+    first = _box_png(page, scene)
+    changed = []
+    for at in (0.25, 0.5, 0.75):
+        _still(page, scene, at)
+        changed.append(int((np.abs(_box_png(page, scene) - first).sum(axis=2) > 30).sum()))
+    if max(changed) > 50:
+        return []
+    return [f"{where}: the animation does not move (pixels changed at 1/4, 1/2, 3/4: {changed})"]
+
+
+def _rotates(page: object, scene: str, where: str) -> list[str]:
+    """What is wrong with a drag across the scene (none: it turns the camera and the view)."""
+    _still(page, scene, 0.0)
+    before = _box_png(page, scene)
+    camera = page.evaluate(f"() => {_viewer(scene)}.camera.position.toArray()")
+    box = page.locator(f"#{scene}").bounding_box()
+    x, y = box["x"] + box["width"] / 2, box["y"] + box["height"] / 2
+    page.mouse.move(x, y)
+    page.mouse.down()
+    page.mouse.move(x + 80, y + 10, steps=8)
+    page.mouse.up()
+    page.evaluate(f"() => {_viewer(scene)}.render()")
+    moved = page.evaluate(f"() => {_viewer(scene)}.camera.position.toArray()")
+    if np.linalg.norm(np.subtract(moved, camera)) <= 1e-3:
+        return [f"{where}: a drag did not turn the camera"]
+    if (np.abs(_box_png(page, scene) - before).sum(axis=2) > 30).sum() <= 50:
+        return [f"{where}: a drag did not change the view"]
+    return []
+
+
+def _controls_cover(page: object, scene: str) -> float:
+    """The share of the scene's view that its controls (the GUI panel) cover."""
+    return page.evaluate(
+        f"""() => {{
+            const box = document.getElementById('{scene}').getBoundingClientRect();
+            const gui = {_viewer(scene)}.gui.domElement.getBoundingClientRect();
+            const w = Math.min(box.right, gui.right) - Math.max(box.left, gui.left);
+            const h = Math.min(box.bottom, gui.bottom) - Math.max(box.top, gui.top);
+            return Math.max(0, w) * Math.max(0, h) / (box.width * box.height);
+        }}"""
+    )
+
+
+@pytest.fixture(scope="module", params=list(SIZES))
+def scenes_seen(request: pytest.FixtureRequest, built_book: Path, site: str, browser: object):
+    """Every scene of the book seen at one size, each page opened once: what is wrong
+    with each (by test), and how many scenes are animated. A page costs seconds of
+    software WebGL to open: the tests below read what one visit saw."""
+    size = request.param
+    problems: dict[str, list[str]] = {"in_view": [], "plays": [], "rotates": [], "controls": []}
+    animated = 0
     assert scene_pages(built_book), "no page has a 3D scene"
     for name in scene_pages(built_book):
-        robots = robots_in(built_book, name)
-        visuals = visuals_in(built_book, name)
-        with visit(browser, site + name, viewport=SIZES[size]) as seen:
-            page = seen.page
-            for scene, names, bodies in zip(scene_ids(page), robots, visuals, strict=True):
-                page.locator(f"#{scene}").scroll_into_view_if_needed()
-                wait_for_first_frame(page, scene)
-                box = page.locator(f"#{scene}").bounding_box()
-                assert box["x"] >= 0 and box["x"] + box["width"] <= SIZES[size]["width"] + 1, (
-                    name,
-                    scene,
-                    box,
-                )
-                canvas = page.eval_on_selector(
-                    f"#{scene} canvas", "c => [c.clientWidth, c.clientHeight]"
-                )
-                assert abs(canvas[0] - box["width"]) <= 2 and abs(canvas[1] - box["height"]) <= 2, (
-                    f"{name} {scene}: canvas {canvas} is not the size of its box {box}"
-                )
-                for at in (0.0, 1.0):
-                    _still(page, scene, at)
-                    shown = _box_png(page, scene)
-                    _show_robots(page, scene, bodies, False)
-                    hidden = _box_png(page, scene)
-                    _show_robots(page, scene, bodies, True)
-                    rows, cols = np.nonzero(np.abs(shown - hidden).sum(axis=2) > 30)
-                    where = f"{name} {scene} ({', '.join(names)}) at {size}, animation at {at}"
-                    assert len(rows) > 200, f"{where}: the robot is not in view ({len(rows)} px)"
-                    height, width = shown.shape[:2]
-                    assert rows.min() > 0 and cols.min() > 0, (
-                        f"{where}: the robot is cut at the top or left edge"
-                    )
-                    assert rows.max() < height - 1 and cols.max() < width - 1, (
-                        f"{where}: the robot is cut at the bottom or right edge"
-                    )
-
-
-@pytest.mark.parametrize("size", SIZES)
-def test_animated_scenes_play_and_every_scene_rotates_when_dragged(
-    built_book: Path, site: str, browser: object, size: str
-) -> None:
-    animated = 0
-    for name in scene_pages(built_book):
         commands = bookpages.scene_commands((built_book / name).read_text())
+        robots, visuals = robots_in(built_book, name), visuals_in(built_book, name)
         with visit(browser, site + name, viewport=SIZES[size]) as seen:
             page = seen.page
-            for scene, drawn in zip(scene_ids(page), commands, strict=True):
+            scenes = zip(scene_ids(page), commands, robots, visuals, strict=True)
+            for scene, drawn, names, bodies in scenes:
+                where = f"{name} {scene} ({', '.join(names)}) at {size}"
                 page.locator(f"#{scene}").scroll_into_view_if_needed()
                 wait_for_first_frame(page, scene)
                 if any(c["type"] == "set_animation" for c in drawn):
                     animated += 1
-                    # It plays on its own: the animator's clock moves (an event, at any speed).
-                    start = page.evaluate(f"() => {_viewer(scene)}.animator.time")
-                    page.wait_for_function(
-                        f"() => {_viewer(scene)}.animator.playing"
-                        f" && {_viewer(scene)}.animator.time !== {start}",
-                        timeout=120_000,
-                    )
-                    # And what it plays moves the robot: a later frame differs from its first
-                    # (stills, so a slow machine's late first screenshot cannot hide it; a wave
-                    # is back where it started half way, so look at three points).
-                    _still(page, scene, 0.0)
-                    first = _box_png(page, scene)
-                    changed = []
-                    for at in (0.25, 0.5, 0.75):
-                        _still(page, scene, at)
-                        changed.append(
-                            int((np.abs(_box_png(page, scene) - first).sum(axis=2) > 30).sum())
-                        )
-                    assert max(changed) > 50, (
-                        f"{name} {scene}: the animation does not move (pixels changed at"
-                        f" 1/4, 1/2, 3/4 of it: {changed})"
-                    )
-                _still(page, scene, 0.0)
-                before = _box_png(page, scene)
-                camera = page.evaluate(f"() => {_viewer(scene)}.camera.position.toArray()")
+                    problems["plays"] += _plays(page, scene, where)
+                covered = _controls_cover(page, scene)
+                if covered >= 0.1:
+                    problems["controls"].append(f"{where}: the controls cover {covered:.0%}")
                 box = page.locator(f"#{scene}").bounding_box()
-                x, y = box["x"] + box["width"] / 2, box["y"] + box["height"] / 2
-                page.mouse.move(x, y)
-                page.mouse.down()
-                page.mouse.move(x + 80, y + 10, steps=8)
-                page.mouse.up()
-                page.evaluate(f"() => {_viewer(scene)}.render()")
-                moved = page.evaluate(f"() => {_viewer(scene)}.camera.position.toArray()")
-                assert np.linalg.norm(np.subtract(moved, camera)) > 1e-3, (
-                    f"{name} {scene}: a drag did not turn the camera"
+                if not (box["x"] >= 0 and box["x"] + box["width"] <= SIZES[size]["width"] + 1):
+                    problems["in_view"].append(f"{where}: the box {box} leaves the page")
+                canvas = page.eval_on_selector(
+                    f"#{scene} canvas", "c => [c.clientWidth, c.clientHeight]"
                 )
-                assert (np.abs(_box_png(page, scene) - before).sum(axis=2) > 30).sum() > 50, (
-                    f"{name} {scene}: a drag did not change the view"
-                )
-    assert animated, "no animated scene in the book"
+                if abs(canvas[0] - box["width"]) > 2 or abs(canvas[1] - box["height"]) > 2:
+                    problems["in_view"].append(f"{where}: canvas {canvas}, its box {box}")
+                problems["in_view"] += _in_view(page, scene, bodies, where)
+                problems["rotates"] += _rotates(page, scene, where)
+    return problems, animated
+
+
+def test_every_scene_shows_its_robot_inside_the_view(scenes_seen) -> None:
+    assert not scenes_seen[0]["in_view"], "\n".join(scenes_seen[0]["in_view"])
+
+
+def test_animated_scenes_play_and_move_the_robot(scenes_seen) -> None:
+    assert scenes_seen[1], "no animated scene in the book"
+    assert not scenes_seen[0]["plays"], "\n".join(scenes_seen[0]["plays"])
+
+
+def test_every_scene_rotates_when_dragged(scenes_seen) -> None:
+    assert not scenes_seen[0]["rotates"], "\n".join(scenes_seen[0]["rotates"])
+
+
+def test_scene_controls_leave_the_view_visible(scenes_seen) -> None:
+    assert not scenes_seen[0]["controls"], "\n".join(scenes_seen[0]["controls"])
 
 
 def _scroll_off_screen(page: object, scene: str) -> None:
@@ -217,29 +251,6 @@ def test_an_animation_off_the_screen_draws_nothing_and_plays_on_when_back(
         assert not page.evaluate(f"() => {viewer}.animator.playing"), (
             f"{name} {scene}: a paused animation started again when scrolled back"
         )
-
-
-@pytest.mark.parametrize("size", SIZES)
-def test_scene_controls_leave_the_view_visible(
-    built_book: Path, site: str, browser: object, size: str
-) -> None:
-    for name in scene_pages(built_book):
-        with visit(browser, site + name, viewport=SIZES[size]) as seen:
-            page = seen.page
-            for scene in scene_ids(page):
-                wait_for_first_frame(page, scene)
-                covered = page.evaluate(
-                    f"""() => {{
-                        const box = document.getElementById('{scene}').getBoundingClientRect();
-                        const gui = {_viewer(scene)}.gui.domElement.getBoundingClientRect();
-                        const w = Math.min(box.right, gui.right) - Math.max(box.left, gui.left);
-                        const h = Math.min(box.bottom, gui.bottom) - Math.max(box.top, gui.top);
-                        return Math.max(0, w) * Math.max(0, h) / (box.width * box.height);
-                    }}"""
-                )
-                assert covered < 0.1, (
-                    f"{name} {scene} at {size}: the controls cover {covered:.0%} of the view"
-                )
 
 
 def test_without_javascript_every_scene_shows_its_still_picture(
