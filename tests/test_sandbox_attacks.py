@@ -1,7 +1,8 @@
 """Hostile lab 1 submissions graded in one class with honest ones (``--workers 4``).
 
-Each attack is a cell added to the wrong answers (honestly 2/10), so an attack that
-worked would show as a changed score. None may change a score undetected (a changed
+Each attack is a cell added to the lab as released (honestly 0/10: its code is not
+written, and the quickest lab 1 there is to grade), so an attack that worked would show
+as a changed score. None may change a score undetected (a changed
 score has a status other than ``ok``), touch another row or file, or stop the run;
 the honest rows score exactly as graded alone (tests/test_lab01.py).
 """
@@ -17,7 +18,7 @@ import nbformat
 import pytest
 
 from autograder.config import ROOT, SOLUTIONS
-from tests.labtools import answered, feedback, grade, submit
+from tests.labtools import answered, feedback, grade, notebook_path, submit
 from tests.test_lab01 import LAB, extra_cell, live_marked_processes, wrong
 
 pytestmark = pytest.mark.slow
@@ -111,7 +112,7 @@ def graded(tmp_path_factory: pytest.TempPathFactory):
     submit(root, "honest_wrong", LAB, wrong())
     submit(root, "duplicated_cell", LAB, duplicated_cell())
     for name, source in attacks(root, out).items():
-        submit(root, name, LAB, extra_cell(wrong(), source))
+        submit(root, name, LAB, extra_cell(nbformat.read(notebook_path(LAB), 4), source))
     big = answered(LAB)
     big.cells.append(nbformat.v4.new_markdown_cell("x" * (21 << 20)))
     submit(root, "huge_notebook", LAB, big)
@@ -160,8 +161,8 @@ def test_a_duplicated_cell_is_graded_fairly(graded) -> None:
 def test_no_attack_changes_its_score_undetected(graded) -> None:
     for name in attacks(Path("/"), Path("/")):
         r = row(graded, name)
-        assert r["status"] != "ok" or r["score"] == "2", (name, r)
-        assert float(r["score"]) <= 2, (name, r)
+        assert r["status"] != "ok" or r["score"] == "0", (name, r)
+        assert float(r["score"]) == 0, (name, r)
 
 
 def test_no_secret_reaches_the_feedback(graded) -> None:
