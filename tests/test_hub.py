@@ -22,7 +22,7 @@ import urllib.request
 from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any, TypeVar
-from urllib.parse import parse_qs, urlencode, urlparse
+from urllib.parse import parse_qs, quote, urlencode, urlparse
 
 import nbformat
 import pytest
@@ -107,19 +107,16 @@ def hub(tmp_path_factory: pytest.TempPathFactory) -> Iterator[dict[str, Any]]:
         log.close()
 
 
-def _log_in(browser: Any, url: str, name: str, password: str) -> Any:
+def _log_in(browser: Any, url: str, name: str, password: str, then: str = "") -> Any:
+    """A new browser's page logged in as ``name``, on its way to ``then`` (a path of the
+    student's server: a link to a notebook) or the server's default page."""
     page = browser.new_context().new_page()
-    page.goto(f"{url}/hub/login", timeout=START_S * 1000)
+    there = f"?next={quote(f'/user/{name}/{then}')}" if then else ""
+    page.goto(f"{url}/hub/login{there}", timeout=START_S * 1000)
     page.fill("#username_input", name)
     page.fill("#password_input", password)
     page.click("#login_submit")
     return page
-
-
-def _open_lab(page: Any, url: str, name: str) -> None:
-    page.wait_for_url(f"**/user/{name}/lab**", timeout=START_S * 1000)
-    page.goto(f"{url}/user/{name}/lab/tree/{LAB}.ipynb", timeout=START_S * 1000)
-    _wait_for_notebook(page)
 
 
 def _wait_until(found: Callable[[], T], what: str, timeout: float = CELL_S) -> T:
@@ -250,9 +247,14 @@ def test_release_submit_grade_and_feedback(browser, hub, tmp_path: Path) -> None
 def test_students_are_isolated_and_nothing_survives_the_hub(browser, hub) -> None:
     url, state = hub["url"], hub["state"]
     # everyone logs in at once: their servers start together
-    pages = {name: _log_in(browser, url, name, hub["passwords"][name]) for name in STUDENTS}
+    # each follows a link to the lab's notebook: JupyterLab opens once, with it
+    notebook = f"lab/tree/{LAB}.ipynb"
+    pages = {
+        name: _log_in(browser, url, name, hub["passwords"][name], notebook) for name in STUDENTS
+    }
     for name, page in pages.items():
-        _open_lab(page, url, name)
+        page.wait_for_url(f"**/user/{name}/{notebook}", timeout=START_S * 1000)
+        _wait_for_notebook(page)
     for name, page in pages.items():
         _run_cell(page, _index(page, "from rosbook.labs import lab01 as checks"))
         _run_cell(page, _index(page, "class CounterPublisher(Node)"))
