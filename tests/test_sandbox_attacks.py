@@ -2,8 +2,7 @@
 
 Each attack is a cell added to the lab as released (honestly 0/10: its code is not
 written, and the quickest lab 1 there is to grade), so an attack that worked would show
-as a changed score. None may change a score undetected (a changed
-score has a status other than ``ok``), touch another row or file, or stop the run;
+as a changed score. None may earn a point, touch another row or file, or stop the run;
 the honest rows score exactly as graded alone (tests/test_lab01.py).
 """
 
@@ -158,11 +157,10 @@ def test_a_duplicated_cell_is_graded_fairly(graded) -> None:
     )
 
 
-def test_no_attack_changes_its_score_undetected(graded) -> None:
+def test_no_attack_earns_a_point(graded) -> None:
     for name in attacks(Path("/"), Path("/")):
         r = row(graded, name)
-        assert r["status"] != "ok" or r["score"] == "0", (name, r)
-        assert float(r["score"]) == 0, (name, r)
+        assert float(r["score"]) == 0, (name, r)  # what the release's code earns
 
 
 def test_no_secret_reaches_the_feedback(graded) -> None:
