@@ -104,6 +104,8 @@ def _see(built_book: Path, site: str, browser: object, size: str) -> dict[str, A
             found["bytes"][name] = (seen.total_bytes, _heaviest(seen.transferred))
             if maths:
                 found["maths"] += _maths_problems(seen.page, name, SIZES[size]["width"])
+                if seen.outside:  # MathJax (its fonts, its extensions) from the site alone
+                    found["maths"].append(f"{name}: maths fetched from {seen.outside}")
             if size == "phone" and tables:
                 hidden = _hidden_tables(seen.page)
                 if hidden:
