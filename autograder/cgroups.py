@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import errno
 import itertools
+import math
 import os
 import re
 import select
@@ -109,14 +110,10 @@ class Cgroup:
 
     def limits(self) -> tuple[float, int, int]:
         """(CPUs, memory bytes, tasks) this cgroup allows, as the kernel holds them."""
-        if self.version == 2:
-            quota, period = self._file("cpu", "cpu.max").read_text().split()
-            cpus = int(quota) / int(period)
-            ram = int(self._file("memory", "memory.max").read_text())
-        else:
-            quota = self._file("cpu", "cpu.cfs_quota_us").read_text()
-            cpus = int(quota) / int(self._file("cpu", "cpu.cfs_period_us").read_text())
-            ram = int(self._file("memory", "memory.limit_in_bytes").read_text())
+        cpus = _cpus(self.folders["v2" if self.version == 2 else "cpu"])
+        assert cpus is not None, self.folders
+        memory = "memory.max" if self.version == 2 else "memory.limit_in_bytes"
+        ram = int(self._file("memory", memory).read_text())
         return cpus, ram, int(self._file("pids", "pids.max").read_text())
 
     def cpu_seconds(self) -> float:
@@ -268,22 +265,29 @@ def _limit_v2(folder: Path, cpus: float, ram: int, processes: int) -> None:
     _write(folder / "pids.max", str(processes))
 
 
+def _cpus(folder: Path) -> float | None:
+    """The CPUs a cgroup folder's quota allows (v2's ``cpu.max``, v1's
+    ``cpu.cfs_quota_us`` per period; ``math.inf`` unlimited), None without either file."""
+    if (folder / "cpu.max").exists():
+        quota, period = (folder / "cpu.max").read_text().split()
+    elif (folder / "cpu.cfs_quota_us").exists():
+        quota = (folder / "cpu.cfs_quota_us").read_text().strip()
+        period = (folder / "cpu.cfs_period_us").read_text()
+    else:
+        return None
+    return math.inf if quota in ("max", "-1") else int(quota) / int(period)
+
+
 def _quota(folder: Path, cpus: float) -> int:
     """The CPU quota for ``cpus``, at most what the cgroups above allow (a grader in a
     container or pod with a CPU limit): cgroup v1 refuses a child more than its parent,
     and in v2 the parent's limit holds anyway (so ``limits`` says what holds)."""
-    quota = max(1000, int(cpus * PERIOD_US))
     for above in folder.parents:
-        if (above / "cpu.max").exists():
-            limit, period = (above / "cpu.max").read_text().split()
-        elif (above / "cpu.cfs_quota_us").exists():
-            limit = (above / "cpu.cfs_quota_us").read_text().strip()
-            period = (above / "cpu.cfs_period_us").read_text()
-        else:  # past the hierarchy's root
+        allowed = _cpus(above)
+        if allowed is None:  # past the hierarchy's root
             break
-        if limit not in ("max", "-1"):
-            quota = min(quota, int(limit) * PERIOD_US // int(period))
-    return quota
+        cpus = min(cpus, allowed)
+    return max(1000, int(cpus * PERIOD_US))
 
 
 def _limit_v1(folders: dict[str, Path], cpus: float, ram: int, processes: int) -> None:
