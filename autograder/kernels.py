@@ -49,7 +49,6 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from jupyter_client import AsyncKernelManager
 from jupyter_core.utils import run_sync
 from nbformat import NotebookNode
 from nbformat.v4 import new_code_cell, new_output
@@ -58,6 +57,7 @@ from traitlets import Bool, Float, Integer, default
 
 from autograder import cgroups, sandbox
 from autograder.feedback import cell_name
+from rosbook.runtime.kernels import AsyncUnixSocketKernelManager
 
 #: Inside the sandbox: where the kernel's sockets and connection file are.
 KERNEL_DIR = "/run/kernel"
@@ -78,8 +78,9 @@ def _copy_capped(stream: Any, limit: int) -> None:
     stream.close()
 
 
-class IpcKernelManager(AsyncKernelManager):
-    """An ``AsyncKernelManager`` whose kernel runs sandboxed, on Unix sockets."""
+class IpcKernelManager(AsyncUnixSocketKernelManager):
+    """An ``AsyncKernelManager`` whose kernel runs sandboxed, on Unix sockets (in its
+    private folder, a link to the sandbox's tmpfs where the kernel binds them)."""
 
     #: The kernel's working folder seen from outside its sandbox (set once started).
     sandbox_folder: str | None = None
@@ -109,15 +110,6 @@ class IpcKernelManager(AsyncKernelManager):
     @property
     def limits(self) -> sandbox.Limits:
         return sandbox.Limits(cpus=self.cpus, ram=self.ram, processes=self.processes)
-
-    @default("transport")
-    def _transport_default(self) -> str:
-        return "ipc"
-
-    @default("connection_file")
-    def _connection_file_default(self) -> str:
-        self._private = Path(tempfile.mkdtemp(prefix="rosbook-kernel-"))
-        return str(self._private / "kernel.json")
 
     @default("ip")
     def _ip_default(self) -> str:
@@ -194,8 +186,6 @@ class IpcKernelManager(AsyncKernelManager):
         if getattr(self, "_own_network", None) is not None:
             self._own_network.close()
             self._own_network = None
-        if not restart and getattr(self, "_private", None) is not None:
-            shutil.rmtree(self._private, ignore_errors=True)
 
     _launch_kernel = _async_launch_kernel  # type: ignore[assignment]
     cleanup_resources = _async_cleanup_resources  # type: ignore[assignment]

@@ -6,7 +6,8 @@ autograde`` of all twenty (sequential, no feedback). Target: ratio at most 0.6.
 
 The sandbox's cost is measured on its own, in the same run: a kernel started, made to
 create a ROS node, and shut down, sandboxed (``IpcKernelManager``) and plain
-(jupyter_client's ``AsyncKernelManager``), median of three each. Target: ratio <= 1.2.
+(jupyter_client's ``AsyncKernelManager`` on Unix sockets too, as the book's kernels:
+``AsyncUnixSocketKernelManager``), median of three each. Target: ratio <= 1.2.
 """
 
 from __future__ import annotations
@@ -27,6 +28,7 @@ from autograder.grade import grade_class
 from autograder.kernels import IpcKernelManager
 from benchmarks import Figure
 from rosbook.runtime.isolation import run_isolated
+from rosbook.runtime.kernels import AsyncUnixSocketKernelManager
 from tests.labtools import answered, submit
 
 LAB = "lab01_nodes_topics"
@@ -79,7 +81,7 @@ def kernel_seconds(folder: Path) -> tuple[float, float]:
     sandboxed, plain = [], []
     for _ in range(3):
         sandboxed.append(asyncio.run(kernel_round_trip(IpcKernelManager(), folder)))
-        plain.append(asyncio.run(kernel_round_trip(AsyncKernelManager(), folder)))
+        plain.append(asyncio.run(kernel_round_trip(AsyncUnixSocketKernelManager(), folder)))
     return statistics.median(sandboxed), statistics.median(plain)
 
 

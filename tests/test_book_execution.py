@@ -24,8 +24,10 @@ CHAPTERS = ["a", "b", "c", "d", "e", "f"]  # Sphinx reads more than 5 in paralle
 #: if they execute at the same time. The wait is a hang guard (it says what did not happen).
 MEET = """
 import os, pathlib, time
+from ipykernel import get_connection_info
 folder = pathlib.Path({folder!r})
 (folder / "domain-{me}").write_text(os.environ.get("ROS_DOMAIN_ID", "none"))
+(folder / "transport-{me}").write_text(get_connection_info(unpack=True)["transport"])
 (folder / "running-{me}").touch()
 give_up = time.monotonic() + 120
 while not (folder / "running-{other}").exists():
@@ -34,7 +36,9 @@ while not (folder / "running-{other}").exists():
 """
 NOTE = """
 import os, pathlib
+from ipykernel import get_connection_info
 pathlib.Path({folder!r}, "domain-{me}").write_text(os.environ.get("ROS_DOMAIN_ID", "none"))
+pathlib.Path({folder!r}, "transport-{me}").write_text(get_connection_info(unpack=True)["transport"])
 """
 
 
@@ -85,6 +89,9 @@ def test_chapters_execute_side_by_side_each_in_a_domain_of_its_own(tmp_path: Pat
     for first, second in zip(CHAPTERS, CHAPTERS[1:]):  # one process reads these in turn
         if {first, second} != {"c", "d"}:
             assert domains[first] != domains[second], domains
+    # on Unix sockets: a TCP kernel can lose a port to another process as it starts
+    transports = {name: (tmp_path / "seen" / f"transport-{name}").read_text() for name in CHAPTERS}
+    assert set(transports.values()) == {"ipc"}, transports
 
 
 def test_a_chapter_that_times_out_is_named_with_its_cell_in_the_failure(tmp_path: Path) -> None:

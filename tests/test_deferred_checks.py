@@ -12,9 +12,9 @@ from pathlib import Path
 from typing import Any
 
 import pytest
-from jupyter_client import KernelManager
 
 from autograder.verdicts import defer_next_cell
+from rosbook.runtime.kernels import UnixSocketKernelManager
 
 #: The notebook's set-up cell, as lab 1's.
 SETUP = "from pathlib import Path\nfrom rosbook.labs import lab01 as checks"
@@ -25,7 +25,7 @@ MARKER = "from pathlib import Path\nPath('ran').write_text('yes')\n"
 @pytest.fixture
 def kernel(tmp_path: Path) -> Any:
     (tmp_path / "marker.py").write_text(MARKER)
-    km = KernelManager()
+    km = UnixSocketKernelManager()
     km.start_kernel(cwd=str(tmp_path))
     client = km.client()
     client.start_channels()

@@ -18,11 +18,11 @@ from pathlib import Path
 from typing import Any
 
 import pytest
-from jupyter_client import KernelManager
 
 from autograder import judge, sandbox
 from autograder.judge_lab01 import check_counter_subscriber
 from autograder.verdicts import judging
+from rosbook.runtime.kernels import UnixSocketKernelManager
 from rosbook.runtime.session import Session
 from tests.labtools import grade_id, notebook_path, solution_answers, strip_markers
 
@@ -316,7 +316,7 @@ def test_a_gated_reading_alone_carries_its_time_into_the_kernel(session: Session
 @contextmanager
 def judged_kernel(code: str) -> Iterator[judge.Kernel]:
     """A kernel that ran ``code`` (a student's cells), as the judge reaches it."""
-    km = KernelManager()
+    km = UnixSocketKernelManager()
     km.start_kernel()
     kernel = None
     try:

@@ -129,9 +129,8 @@ def test_lab6_judge_names_an_int_rate_and_leaves_no_process(tmp_path: Path) -> N
     """The judge itself (a kernel of the student's own, unsandboxed as in a self-check):
     an int rate kills the talker at launch; the verdict says why, and every process of
     the launch is gone afterwards (stopped by one Ctrl-C to `ros2 launch`)."""
-    from jupyter_client import KernelManager
-
     from autograder.judge import Verdict
+    from rosbook.runtime.kernels import UnixSocketKernelManager
     from tests.labtools import answered, replace_in_answer
 
     lab6 = "lab06_launch_system"
@@ -144,7 +143,7 @@ def test_lab6_judge_names_an_int_rate_and_leaves_no_process(tmp_path: Path) -> N
     kernel_home, folder = tmp_path / "kernel", tmp_path / "judge"
     kernel_home.mkdir()
     folder.mkdir()
-    km = KernelManager()
+    km = UnixSocketKernelManager()
     km.start_kernel(cwd=str(kernel_home))
     try:
         client = km.client()

@@ -7,7 +7,9 @@ two. This extension has Sphinx read in parallel processes, as ``sphinx-build -j 
 does, and gives each chapter's kernel a ROS domain of its own: chapters executing at
 once never hear each other, and ``ros2 node list`` in a chapter shows that chapter's
 nodes only. Pages are still written one at a time (the 3D scenes' stills share one
-browser: ``sphinx_meshcat`` is not safe for parallel writing).
+browser: ``sphinx_meshcat`` is not safe for parallel writing). The chapters' kernels
+talk over Unix sockets (``rosbook.runtime.kernels``): a TCP kernel can lose a port to
+another process as it starts and the chapter then fails.
 
 Enable it in ``_config.yml``: ``sphinx: extra_extensions: [rosbook.book.sphinx_execute]``.
 ``ROSBOOK_EXECUTION_JOBS=N make book`` sets how many chapters execute at once (default:
@@ -22,12 +24,15 @@ import os
 from collections.abc import Callable
 from typing import Any
 
+import nbclient
 from jupyter_cache import get_cache
 from jupyter_cache.cache.main import JupyterCacheBase
+from jupyter_cache.executors import utils as cache_executors
 from sphinx.application import Sphinx
 from sphinx.environment import BuildEnvironment
 
 from rosbook.runtime.isolation import DomainReservation, reserve_domain
+from rosbook.runtime.kernels import AsyncUnixSocketKernelManager
 
 #: The domain of the chapter this process reads now (held until its next chapter).
 _held: list[DomainReservation] = []
@@ -82,6 +87,10 @@ def read_in_parallel(app: Sphinx) -> None:
             write = getattr(JupyterCacheBase, name)
             if not getattr(write, "rosbook_serialized", False):
                 setattr(JupyterCacheBase, name, serialized(write))
+        # jupyter-cache executes with nbclient's ``execute`` and its default manager
+        cache_executors.executenb = functools.partial(
+            nbclient.execute, kernel_manager_class=AsyncUnixSocketKernelManager
+        )
     for name in READ_SAFE:
         extension = app.extensions.get(name)
         if extension is not None and extension.parallel_read_safe is None:
