@@ -52,6 +52,7 @@ import os
 import secrets
 import shutil
 import signal
+import socket
 import subprocess
 import sys
 import tempfile
@@ -61,7 +62,9 @@ from pathlib import Path
 from typing import Any
 from urllib.parse import urlparse, urlunparse
 
+import psutil
 from jupyterhub.auth import Authenticator
+from jupyterhub.proxy import ConfigurableHTTPProxy
 from jupyterhub.spawner import SimpleLocalProcessSpawner
 from nbgrader.utils import notebook_hash
 from traitlets import Float, Integer, Unicode
@@ -385,6 +388,31 @@ def _hash(password: str, salt: bytes) -> str:
     return hashlib.scrypt(password.encode(), salt=salt, n=1 << 14, r=8, p=1).hex()
 
 
+class ListeningProxy(ConfigurableHTTPProxy):  # type: ignore[misc]
+    """JupyterHub's proxy, which fails the hub's start when it cannot listen at the hub's
+    URL. The proxy (node.js) logs ``EADDRINUSE`` for a port another program holds and
+    runs on, and JupyterHub takes the port's answering a connection (the other
+    program's) for the proxy's: the hub said it was running at a URL where students
+    would reach something else."""
+
+    async def start(self) -> None:
+        await super().start()  # its API answers: both its listens were made by now
+        at = urlparse(self.public_url)
+        port = at.port or (443 if at.scheme == "https" else 80)
+        listening = [
+            c
+            for c in psutil.Process(self.proxy_process.pid).net_connections(kind="tcp")
+            if c.status == psutil.CONN_LISTEN and c.laddr.port == port
+        ]
+        if not listening:
+            self.stop()
+            raise RuntimeError(
+                f"the proxy could not listen at {self.public_url}: port {port} is taken "
+                "by another program (Address already in use); stop it or give the hub "
+                "another HUB_URL"
+            )
+
+
 class RosterAuthenticator(Authenticator):  # type: ignore[misc]
     """A password of each person's own, from a roster file of scrypt hashes."""
 
@@ -408,10 +436,47 @@ class RosterAuthenticator(Authenticator):  # type: ignore[misc]
         return data["username"] if hmac.compare_digest(given, person["hash"]) else None
 
 
-def serve(url: str, env: dict[str, str], log: Any) -> subprocess.Popen[bytes]:
-    """``make hub HUB_URL=url`` (in a session of its own: stop it with ``os.killpg``),
-    once it answers on its API; ``RuntimeError`` if it exits first, ``TimeoutError`` if
-    it never answers (its output is in ``log``)."""
+#: What a server's log says when a port it was to bind was taken (the proxy's node.js,
+#: the hub's tornado).
+PORT_TAKEN = ("EADDRINUSE", "Address already in use")
+
+
+def free_port() -> int:
+    """A loopback TCP port that is free now (another process may take it before whoever
+    it is given to binds it: ``serve`` starts the hub again if so)."""
+    with socket.socket() as sock:
+        sock.bind(("127.0.0.1", 0))
+        return int(sock.getsockname()[1])
+
+
+def serve(
+    env: dict[str, str], log: Any, url: str | None = None, tries: int = 3
+) -> tuple[subprocess.Popen[bytes], str]:
+    """``make hub HUB_URL=url`` (a free loopback port's if not given; in a session of its
+    own: stop it with ``os.killpg``) and its URL, once it answers on its API.
+
+    The hub is given ports found free a moment before (its URL's, its API's and its
+    proxy's: ``jupyterhub_config.py``); if another process took one first, it exits
+    saying so and is started again, on other ports, up to ``tries`` times. Otherwise
+    ``RuntimeError`` if it exits first, ``TimeoutError`` if it never answers (its
+    output is in ``log``)."""
+    for attempt in range(1, tries + 1):
+        at = url or f"http://127.0.0.1:{free_port()}"
+        start = Path(log.name).stat().st_size
+        try:
+            return _serve(at, env, log), at
+        except RuntimeError as exc:
+            said = Path(log.name).read_bytes()[start:].decode(errors="replace")
+            if not any(taken in said for taken in PORT_TAKEN):
+                raise
+            if attempt == tries:
+                raise RuntimeError(
+                    f"{exc}: a port it was given was taken by another process, "
+                    f"{tries} time(s) in a row"
+                ) from None
+
+
+def _serve(url: str, env: dict[str, str], log: Any) -> subprocess.Popen[bytes]:
     server = subprocess.Popen(
         ["make", "--no-print-directory", "-C", str(ROOT), "hub", f"HUB_URL={url}"],
         stdout=log, stderr=subprocess.STDOUT, env=env, start_new_session=True,

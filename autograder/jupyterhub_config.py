@@ -25,27 +25,27 @@ the environment:
 import json
 import os
 import shlex
-import socket
 
-from autograder.hub import ROOT, RosterAuthenticator, SandboxSpawner, state_dir
+from autograder.hub import (
+    ROOT,
+    ListeningProxy,
+    RosterAuthenticator,
+    SandboxSpawner,
+    free_port,
+    state_dir,
+)
 
 c = get_config()  # type: ignore[name-defined]  # noqa: F821  (traitlets config file)
 
 state = state_dir()
 state.mkdir(parents=True, exist_ok=True)
 
-
-def _free_port() -> int:
-    with socket.socket() as sock:
-        sock.bind(("127.0.0.1", 0))
-        return int(sock.getsockname()[1])
-
-
 c.JupyterHub.bind_url = os.environ.get("ROSBOOK_HUB_URL", "http://127.0.0.1:8000")
 # The hub's API and the proxy's, on the host's loopback, on ports of their own
 c.JupyterHub.hub_ip = "127.0.0.1"
-c.JupyterHub.hub_port = _free_port()
-c.ConfigurableHTTPProxy.api_url = f"http://127.0.0.1:{_free_port()}"
+c.JupyterHub.hub_port = free_port()
+c.JupyterHub.proxy_class = ListeningProxy  # fails the start if it cannot listen at the URL
+c.ConfigurableHTTPProxy.api_url = f"http://127.0.0.1:{free_port()}"
 c.ConfigurableHTTPProxy.command = [
     str(ROOT / ".hub" / "node_modules" / ".bin" / "configurable-http-proxy")
 ]

@@ -14,7 +14,6 @@ spends the venv's minute or two and the proxy's ``npm install``):
 
 from __future__ import annotations
 
-import socket
 import tempfile
 import time
 from collections.abc import Iterator
@@ -47,9 +46,6 @@ def run() -> Iterator[Figure]:
         raise RuntimeError("NO BROWSER: install Debian's chromium (apt-get install chromium)")
     state = Path(tempfile.mkdtemp(prefix="bench_hub_"))
     password = add(state / "roster.json", STUDENT)
-    with socket.socket() as sock:
-        sock.bind(("127.0.0.1", 0))
-        url = f"http://127.0.0.1:{sock.getsockname()[1]}"
     env = {
         **child_env(),
         "ROSBOOK_HUB_DIR": str(state),
@@ -57,7 +53,7 @@ def run() -> Iterator[Figure]:
     }
     with (state / "hub.log").open("w") as log:
         start = time.monotonic()
-        server = serve(url, env, log)
+        server, url = serve(env, log)
         try:
             yield Figure("make hub to the hub's API", time.monotonic() - start, "s")
             before = set(process_tree(server.pid))

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import signal
 import socket
 import subprocess
@@ -25,6 +26,7 @@ from typing import Any, TypeVar
 from urllib.parse import parse_qs, quote, urlencode, urlparse
 
 import nbformat
+import psutil
 import pytest
 
 from autograder.config import ROOT
@@ -48,12 +50,6 @@ STUDENTS = ("ada", "ben", "cyd")
 INSTRUCTOR = "prof"
 STOP_S = 120  # a hang guard for the hub's stop
 GRADE_S = 900  # a hang guard for the instructor's commands (grading three on a busy machine)
-
-
-def _free_port() -> int:
-    with socket.socket() as sock:
-        sock.bind(("127.0.0.1", 0))
-        return int(sock.getsockname()[1])
 
 
 def _alive(processes: dict[int, str]) -> list[str]:
@@ -86,7 +82,6 @@ def hub(tmp_path_factory: pytest.TempPathFactory) -> Iterator[dict[str, Any]]:
         )
         nbformat.write(notebook, home / f"{LAB}.ipynb")
         nbformat.write(answered(LAB), home / "answers.ipynb")  # what they will submit
-    port = _free_port()
     env = child_env()
     env.update(
         ROSBOOK_HUB_DIR=str(state),
@@ -94,9 +89,8 @@ def hub(tmp_path_factory: pytest.TempPathFactory) -> Iterator[dict[str, Any]]:
         ROS_DOMAIN_ID="0",  # every student in one domain: only their networks part them
     )
     log = (state / "hub.log").open("w")
-    url = f"http://127.0.0.1:{port}"
     try:
-        server = serve(url, env, log)
+        server, url = serve(env, log)
     except (RuntimeError, TimeoutError) as exc:
         log.close()
         pytest.fail(f"{exc}:\n" + Path(log.name).read_text())
@@ -253,7 +247,13 @@ def test_students_are_isolated_and_nothing_survives_the_hub(browser, hub) -> Non
         name: _log_in(browser, url, name, hub["passwords"][name], notebook) for name in STUDENTS
     }
     for name, page in pages.items():
-        page.wait_for_url(f"**/user/{name}/{notebook}", timeout=START_S * 1000)
+        # the login goes to the notebook, or to the hub's page saying that the server is
+        # not running (as at the first login of this hub), whose button starts it
+        page.wait_for_url(re.compile(f"/user/{name}/{notebook}$"), timeout=START_S * 1000)
+        if urlparse(page.url).path.startswith("/hub/"):
+            page.click("#start")
+    for name, page in pages.items():
+        page.wait_for_url(f"{url}/user/{name}/{notebook}", timeout=START_S * 1000)
         _wait_for_notebook(page)
     for name, page in pages.items():
         _run_cell(page, _index(page, "from rosbook.labs import lab01 as checks"))
@@ -294,6 +294,27 @@ class _NoRedirect(urllib.request.HTTPRedirectHandler):
         return None  # the redirect is the answer under test
 
 
+def test_a_hub_whose_port_was_taken_is_started_again_then_says_so(tmp_path: Path) -> None:
+    """The hub is given ports found free a moment before; when another process took one
+    first, ``serve`` starts it again, and after its tries says that a port was taken.
+    The hub exits (it once said it was running, the other program answering its URL),
+    its proxy with it."""
+    add(tmp_path / "roster.json", STUDENTS[0])
+    env = child_env()
+    env.update(ROSBOOK_HUB_DIR=str(tmp_path))
+    with socket.socket() as taken:
+        taken.bind(("127.0.0.1", 0))
+        taken.listen()
+        port = str(taken.getsockname()[1])
+        with (tmp_path / "hub.log").open("w") as log:
+            with pytest.raises(RuntimeError, match="was taken by another process, 2 time"):
+                serve(env, log, url=f"http://127.0.0.1:{port}", tries=2)
+        said = (tmp_path / "hub.log").read_text()
+        assert said.count(f"port {port} is taken by another program") == 2, said
+        proxies = [p for p in psutil.process_iter(["cmdline"]) if port in (p.info["cmdline"] or [])]
+        assert proxies == [], proxies
+
+
 def test_lti13_launch_goes_to_the_lms(tmp_path: Path) -> None:
     """``make hub`` with an LMS's LTI 1.3 registration in its environment: it serves the
     tool's settings for the LMS, and a launch from the LMS goes back to the LMS's
@@ -308,10 +329,9 @@ def test_lti13_launch_goes_to_the_lms(tmp_path: Path) -> None:
         ROSBOOK_HUB_LTI13_AUTHORIZE_URL=f"{lms}/auth",
         ROSBOOK_HUB_LTI13_JWKS_URL=f"{lms}/jwks",
     )
-    url = f"http://127.0.0.1:{_free_port()}"
     with (tmp_path / "hub.log").open("w") as log:
         try:
-            server = serve(url, env, log)
+            server, url = serve(env, log)
         except (RuntimeError, TimeoutError) as exc:
             pytest.fail(f"{exc}:\n" + (tmp_path / "hub.log").read_text())
         try:
