@@ -9,7 +9,6 @@ import os
 import pty
 import select
 import signal
-import socket
 import subprocess
 import sys
 import time
@@ -22,6 +21,7 @@ from nbgrader.api import Gradebook
 
 from autograder.config import ROOT
 from tests.labtools import answered, marked_processes, submit
+from tests.servers import server_url
 
 LAB = "lab01_nodes_topics"
 HANG = 900.0  # seconds: only a guard against a hung run, never a verdict
@@ -385,23 +385,24 @@ def test_dask_workers_grade_like_local_and_retry_a_killed_workers_submission(
 @pytest.fixture
 def formgrader(interrupted_class: dict, tmp_path: Path) -> Iterator[str]:
     """nbgrader's formgrader over the graded class: ``jupyter server`` in OUT, loopback."""
-    with socket.socket() as probe:
-        probe.bind(("127.0.0.1", 0))
-        port = probe.getsockname()[1]
-    out = interrupted_class["out"]
+    out, runtime = interrupted_class["out"], tmp_path / "runtime"
     log = open(tmp_path / "server.log", "wb")  # noqa: SIM115 (closed at teardown)
     server = subprocess.Popen(
         [sys.executable, "-m", "jupyter", "server", "--no-browser", "--ip=127.0.0.1"]
-        + [f"--port={port}", "--ServerApp.port_retries=0", "--IdentityProvider.token=t0ken"]
+        + ["--port=0", "--IdentityProvider.token=t0ken"]
         + [f"--ServerApp.root_dir={out}", "--ServerApp.allow_root=True"],
         cwd=out,
+        env={**os.environ, "JUPYTER_RUNTIME_DIR": str(runtime)},  # it says its port there
         stdout=log,
         stderr=log,
         start_new_session=True,
     )
-    base = f"http://127.0.0.1:{port}"
     try:
         deadline = time.monotonic() + HANG
+        try:
+            base = server_url(runtime, server, HANG)
+        except (RuntimeError, TimeoutError) as exc:
+            pytest.fail(f"{exc}:\n" + (tmp_path / "server.log").read_text())
         while True:
             assert server.poll() is None, (tmp_path / "server.log").read_text()
             assert time.monotonic() < deadline, "timeout: jupyter server did not answer"

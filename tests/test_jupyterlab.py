@@ -13,7 +13,6 @@ import json
 import os
 import secrets
 import signal
-import socket
 import subprocess
 import time
 import urllib.request
@@ -27,6 +26,7 @@ import pytest
 from autograder.config import ROOT
 from rosbook.runtime.isolation import child_env
 from tests.labtools import answered, assert_counted_from_zero
+from tests.servers import server_url
 
 LAB = "lab01_nodes_topics"
 #: Bounds against hangs only (a loaded machine is slow; none of them decides a verdict).
@@ -35,12 +35,6 @@ CELL_S = 180
 
 LIVE_VIEW = "from rosbook import viz\nvis = viz.live_visualizer()\nvis.jupyter_cell()"
 DRAW_BOX = "import meshcat.geometry as g\nvis['box'].set_object(g.Box([0.2, 0.2, 0.2]))"
-
-
-def _free_port() -> int:
-    with socket.socket() as sock:
-        sock.bind(("127.0.0.1", 0))
-        return int(sock.getsockname()[1])
 
 
 def _api(url: str, token: str, path: str, method: str = "GET") -> Any:
@@ -61,22 +55,27 @@ def lab_server(tmp_path_factory: pytest.TempPathFactory) -> Iterator[tuple[str, 
     notebook.cells += [nbformat.v4.new_code_cell(LIVE_VIEW), nbformat.v4.new_code_cell(DRAW_BOX)]
     notebook.cells.append(nbformat.v4.new_code_cell("viz.close_live(vis)"))
     nbformat.write(notebook, folder / f"{LAB}.ipynb")
-    port, token = _free_port(), secrets.token_hex(16)
+    token, runtime = secrets.token_hex(16), folder.parent / "runtime"
     flags = (
-        f"--no-browser --ip=127.0.0.1 --port={port} --ServerApp.port_retries=0 "
+        "--no-browser --ip=127.0.0.1 --port=0 "
         f"--IdentityProvider.token={token} --LabApp.expose_app_in_browser=True"
     )
     log = (folder.parent / "server.log").open("w")
     env = child_env()
     env.pop("ROS_DOMAIN_ID", None)  # `make lab` picks a domain of its own
+    env["JUPYTER_RUNTIME_DIR"] = str(runtime)  # where it says which port it was given
     server = subprocess.Popen(
         ["make", "--no-print-directory", "-C", str(ROOT), "lab", f"LAB_DIR={folder}",
          f"LAB_ARGS={flags}"],
         stdout=log, stderr=subprocess.STDOUT, env=env, start_new_session=True,
     )  # fmt: skip
-    url = f"http://127.0.0.1:{port}"
+    url = ""
     try:
         deadline = time.monotonic() + START_S
+        try:
+            url = server_url(runtime, server, START_S)
+        except (RuntimeError, TimeoutError) as exc:
+            pytest.fail(f"make lab did not serve: {exc}\n" + Path(log.name).read_text())
         while True:
             try:
                 _api(url, token, "status")
@@ -88,11 +87,14 @@ def lab_server(tmp_path_factory: pytest.TempPathFactory) -> Iterator[tuple[str, 
         yield url, token, folder
     finally:
         try:
+            if not url:
+                raise OSError("no server to ask")
             _api(url, token, "shutdown", method="POST")
             server.wait(timeout=60)
         except (OSError, subprocess.TimeoutExpired):
-            os.killpg(server.pid, signal.SIGINT)
-            server.wait(timeout=60)
+            if server.poll() is None:
+                os.killpg(server.pid, signal.SIGINT)
+                server.wait(timeout=60)
         log.close()
 
 
