@@ -70,6 +70,33 @@ def test_silent_topic_explains_the_graph(session: Session) -> None:
         probe.wait_for_publisher(timeout=0.5)
 
 
+def test_a_match_the_graph_shows_coming_is_waited_for_then_a_timeout_not_wrong(
+    session: Session, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Past the first limit, a probe waits on only for a publisher the graph shows will
+    match (right type, compatible QoS), and says "timeout" when that never happens; a
+    publisher whose QoS cannot match is not waited for. (A match that never comes stands
+    in for one slowed past every limit.)"""
+    from rclpy.qos import QoSProfile, ReliabilityPolicy
+
+    from rosbook.labs import probes
+
+    monkeypatch.setattr(probes, "MATCH_GUARD_S", 0.5)
+    best_effort = QoSProfile(depth=10, reliability=ReliabilityPolicy.BEST_EFFORT)
+    reliable = QoSProfile(depth=10)
+    Node("late_talker").create_publisher(Int64, "counter", best_effort)
+    probe = Node("probe_counter")
+
+    def never() -> bool:
+        return False
+
+    said = r"timeout: node 'late_talker' has a publisher on /counter \(std_msgs/msg/Int64\) "
+    with pytest.raises(TimeoutError, match=said + r".* did not match within 0.7 s"):
+        probes.await_match(probe, "/counter", Int64, best_effort, never, timeout=0.2)
+    assert not probes.await_match(probe, "/counter", Int64, reliable, never, timeout=0.2)
+    assert not probes.await_match(probe, "/counter", String, best_effort, never, timeout=0.2)
+
+
 @pytest.mark.parametrize(
     ("got", "message"),
     [

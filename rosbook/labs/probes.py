@@ -32,7 +32,7 @@ from types import ModuleType
 from typing import Any, TypeVar
 
 from rclpy.node import Node
-from rclpy.qos import QoSProfile
+from rclpy.qos import QoSCompatibility, QoSProfile, qos_check_compatible
 
 from rosbook.labs.deferral import deferrable
 from rosbook.runtime.graph import absolute_name
@@ -42,6 +42,10 @@ T = TypeVar("T")
 
 #: Wall-clock bound for discovery between two endpoints in one process.
 MATCH_TIMEOUT_S = 2.0
+#: Wall-clock hang guard for a match the graph shows is coming (an endpoint of the right
+#: type and a compatible QoS is there): a loaded machine can take seconds to match two
+#: endpoints, even in one process. Passing it is a timeout, never a wrong answer.
+MATCH_GUARD_S = 30.0
 
 #: Where the library's own frames live: hidden from a failing check's traceback.
 _LIBRARY_DIRS = tuple(
@@ -255,8 +259,10 @@ class Probe:
         self.received.times.append(self.node.get_clock().now().nanoseconds / 1e9)
 
     def wait_for_publisher(self, timeout: float = MATCH_TIMEOUT_S) -> None:
-        """Wait until a publisher is matched, or fail saying why there is none."""
-        if not ros.spin_until(lambda: self.sub.get_publisher_count() > 0, timeout=timeout):
+        """Wait until a publisher is matched, or fail saying why there is none
+        (``await_match``)."""
+        if not await_match(self.node, self.topic, self.msg_type, self.sub.qos_profile,
+                           lambda: self.sub.get_publisher_count() > 0, timeout):  # fmt: skip
             raise CheckFailed(explain_silence(self.node, self.topic, self.msg_type))
 
     def wait_for(self, count: int, timeout: float) -> Received:
@@ -277,7 +283,11 @@ class Sender:
         self.pub = self.node.create_publisher(msg_type, self.topic, qos)
 
     def wait_for_subscriber(self, timeout: float = MATCH_TIMEOUT_S) -> None:
-        if not ros.spin_until(lambda: self.pub.get_subscription_count() > 0, timeout=timeout):
+        """Wait until a subscription is matched, or fail saying why there is none
+        (``await_match``)."""
+        if not await_match(self.node, self.topic, self.msg_type, self.pub.qos_profile,
+                           lambda: self.pub.get_subscription_count() > 0, timeout,
+                           publishing=True):  # fmt: skip
             raise CheckFailed(
                 f"nobody subscribes to {self.topic} ({type_name(self.msg_type)}) after "
                 f"{timeout:.0f} s. " + _graph_summary(self.node, self.topic, "subscriber")
@@ -291,6 +301,48 @@ class Sender:
 
     def close(self) -> None:
         ros.remove(self.node)
+
+
+def await_match(
+    node: Node,
+    topic: str,
+    msg_type: type,
+    qos: QoSProfile,
+    matched: Callable[[], bool],
+    timeout: float,
+    publishing: bool = False,
+) -> bool:
+    """Spin until ``matched()`` (``node``'s endpoint on ``topic`` met the other side);
+    whether it did. Past ``timeout``, while the graph shows an endpoint of the other side
+    with the right type and a QoS compatible with ``qos`` (one that will match, only
+    late), it waits on up to ``MATCH_GUARD_S`` and then raises ``TimeoutError``."""
+    if ros.spin_until(matched, timeout=timeout):
+        return True
+    want = type_name(msg_type)
+    others = (
+        node.get_subscriptions_info_by_topic(topic)
+        if publishing
+        else node.get_publishers_info_by_topic(topic)
+    )
+    coming = [
+        e
+        for e in others
+        if e.topic_type == want
+        and _compatible(*((qos, e.qos_profile) if publishing else (e.qos_profile, qos)))
+    ]
+    if not coming:
+        return False
+    if ros.spin_until(matched, timeout=MATCH_GUARD_S):
+        return True
+    kind = "subscription" if publishing else "publisher"
+    raise TimeoutError(
+        f"timeout: node '{coming[0].node_name}' has a {kind} on {topic} ({want}) on the ROS "
+        f"graph, but it did not match within {timeout + MATCH_GUARD_S:g} s"
+    )
+
+
+def _compatible(publisher: QoSProfile, subscription: QoSProfile) -> bool:
+    return bool(qos_check_compatible(publisher, subscription)[0] != QoSCompatibility.ERROR)
 
 
 def explain_silence(node: Node, topic: str, msg_type: type) -> str:
