@@ -166,6 +166,9 @@ class _RosbookJudgeAgent:
         (GIDs) its participant has discovered: a publisher sends only to those it knows,
         so the judge waits to be among them before it lets the node send.
 
+        When a callback of the node raises, a last ack says so ("raised") and the error
+        ends the call.
+
         With ``gate`` (a topic the node subscribes to), the reading carries the time:
         once the node has taken a message on ``gate`` stamped T, its /clock subscriptions
         get time T (a /clock message for T, made here), so its timers at T run after its
@@ -309,6 +312,12 @@ class _RosbookJudgeAgent:
                     self._answer({"timeout": True})
                     return
                 runner.spin(0.01)
+        except Exception:
+            # A callback of the node raised: say so at once, so that the judge stops
+            # waiting for what the node will no longer do; the error ends this call.
+            msg.data = json.dumps({"now": last, "published": counts, "raised": True})
+            ack.publish(msg)
+            raise
         finally:
             Publisher.publish = original
             ServerGoalHandle.publish_feedback = original_feedback
@@ -688,8 +697,9 @@ def judge_one(request: dict[str, Any], kernels: dict[str, Kernel]) -> Verdict:
     try:
         check(j)
         return Verdict(grade_id, True, outputs=j.outputs)
-    except (JudgeTimeout, StillRunning) as exc:
-        return Verdict(grade_id, False, f"timeout: {exc}", timeout=True, outputs=j.outputs)
+    except (JudgeTimeout, StillRunning, TimeoutError) as exc:  # a hang guard, not a verdict
+        said = str(exc).removeprefix("timeout: ")
+        return Verdict(grade_id, False, f"timeout: {said}", timeout=True, outputs=j.outputs)
     except AssertionError as exc:
         return Verdict(grade_id, False, str(exc), outputs=j.outputs)
     except Exception:  # the judge's own failure: say so, never pass

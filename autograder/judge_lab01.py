@@ -147,9 +147,13 @@ def _ack(text: str) -> dict[str, Any]:
             "feedback_at": [int(t) for t in ack.get("feedback_at", [])],
             "taken": dict(ack.get("taken", {})),
             "readers": {str(k): set(v) for k, v in dict(ack.get("readers", {})).items()},
+            "raised": bool(ack.get("raised", False)),
         }
     except (ValueError, KeyError, TypeError):
-        return {"now": -1, "published": {}, "feedback_at": [], "taken": {}, "readers": {}}
+        return {
+            "now": -1, "published": {}, "feedback_at": [], "taken": {}, "readers": {},
+            "raised": False,
+        }  # fmt: skip
 
 
 def wait_until_discovered(

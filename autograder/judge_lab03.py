@@ -48,7 +48,7 @@ from rosbook.labs import lab03 as service_checks
 from rosbook.labs.probes import Probe, assert_sequence
 from rosbook.runtime.actions import GoalRun
 from rosbook.runtime.callbacks import Callbacks, WakingExecutor
-from rosbook.runtime.services import BackgroundServer, ServiceCallError, call
+from rosbook.runtime.services import BackgroundServer, call
 from rosbook.runtime.session import ros
 
 #: Wall-clock seconds after which an unanswered /clock step is published again.
@@ -106,6 +106,10 @@ _RosbookJudgeAgent.call_trigger = _judge_call_trigger
 HOLD_GUARD_S = 120.0
 
 
+class NodeRaised(Exception):
+    """The kernel said a callback of the followed node raised (``RemoteClock``)."""
+
+
 class RemoteClock:
     """``/clock`` of the judge's, followed in lockstep by the student's node in the kernel
     (``AGENT.follow_clock``), with the ``now`` / ``advance`` of a ``SimClock``.
@@ -125,7 +129,7 @@ class RemoteClock:
         self.acks = self.node.create_subscription(
             String,
             "/rosbook_judge/clock_ack",
-            lambda m: self.acked.append(_ack(m.data)),
+            self._on_ack,
             10,
             event_callbacks=SubscriptionEventCallbacks(use_default_callbacks=False),
         )
@@ -149,6 +153,13 @@ class RemoteClock:
             what=f"node '{name}' did not start on /clock",
             guard=LOCKSTEP_GUARD_S,
         )
+
+    def _on_ack(self, msg: String) -> None:
+        self.acked.append(_ack(msg.data))
+        if self.acked[-1]["raised"]:
+            # Whatever spins the judge's nodes now (a service call, a wait) stops here:
+            # the node will not answer. ``finish`` then reads the error.
+            raise NodeRaised(f"a callback of node '{self.name}' raised")
 
     @property
     def now(self) -> float:
@@ -292,9 +303,10 @@ def check_clock_server(j: Judgement) -> None:
                 clock.advance(at - clock.now, step=at - clock.now)
                 asker = ros_node("what_time_check_client")
                 try:
-                    response = call(asker, Trigger, "what_time", timeout=EVENT_GUARD_S)
-                except ServiceCallError as exc:
-                    raise CheckFailed(f"calling what_time failed: {exc}") from None
+                    with service_checks.call_failing("calling what_time"):
+                        response = call(
+                            asker, Trigger, "what_time", timeout=service_checks.DISCOVERY_S
+                        )
                 finally:
                     ros.remove(asker)
                 service_checks.assert_told_time(response, at)

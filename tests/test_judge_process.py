@@ -17,6 +17,7 @@ from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
+import nbformat
 import pytest
 
 from autograder import judge, sandbox
@@ -426,3 +427,109 @@ def test_a_script_still_running_after_ctrl_c_is_a_timeout_not_wrong(
         verdict = judge.judge_one(request, {kernel.client.connection_file: kernel})
     assert (verdict.passed, verdict.timeout) == (False, True), verdict
     assert verdict.message.startswith("timeout: talker.py was still running 15 s after Ctrl-C")
+
+
+def lab03_kernel_code(grade_ids: tuple[str, ...], extra: str = "") -> str:
+    """Lab 3's set-up cell and the solution of ``grade_ids``, then ``extra``."""
+    notebook = nbformat.read(notebook_path("lab03_services_actions"), as_version=4)
+    setup = next(c.source for c in notebook.cells if grade_id(c) == "setup")
+    answers = solution_answers("lab03_services_actions")
+    return "\n\n".join([setup, *(strip_markers(answers[g]) for g in grade_ids), extra])
+
+
+#: Lab 3's RatePublisher, right, on a starved machine: it answers the first change of
+#: its rate after 3 s, longer than the 2 s the checks once gave a parameter call.
+LATE_PARAMETERS = """
+import time
+
+class RatePublisher(RatePublisher):
+    def on_set_parameters(self, parameters):
+        if any(p.name == 'rate_hz' and p.value == 5.0 for p in parameters):
+            time.sleep(3.0)
+        return super().on_set_parameters(parameters)
+"""
+
+
+@pytest.mark.slow  # a lab 3 check, twice, with 3 s pauses
+def test_a_node_answering_its_parameters_late_is_waited_for_not_marked_wrong(
+    session: Session, tmp_path: Path
+) -> None:
+    """The judge's parameter calls to a student's node are bounded by a generous hang
+    guard: a right node on a starved machine that answers after 3 s passes."""
+    code = lab03_kernel_code(("rate_parameter",), LATE_PARAMETERS)
+    with judged_kernel(code) as kernel:
+        request = {
+            "check": "test_rate_parameter",
+            "assignment": "lab03_services_actions",
+            "connection_file": kernel.client.connection_file,
+            "folder": str(tmp_path),
+        }
+        verdict = judge.judge_one(request, {kernel.client.connection_file: kernel})
+    assert verdict.passed, verdict
+
+
+def test_a_call_whose_limit_passed_is_a_timeout_not_wrong(
+    session: Session, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A check's call that got no answer within its limit (here no server at all, with
+    the limit cut to 0.5 s) is a verdict of "timeout" (a hang guard), not of wrong code;
+    a call that failed otherwise still fails the check."""
+    from autograder import judge_lab03
+    from rosbook.labs import lab03
+    from rosbook.runtime.params import ParameterError
+
+    monkeypatch.setattr(lab03, "DISCOVERY_S", 0.5)
+
+    def unanswered(j: judge.Judgement) -> None:
+        lab03.set_from_outside(judge_lab03.RemoteNode("nobody_here"), "rate_hz", 5.0)
+
+    monkeypatch.setitem(judge_lab03.CHECKS, "test_rate_parameter", unanswered)
+    with judged_kernel("") as kernel:
+        request = {
+            "check": "test_rate_parameter",
+            "assignment": "lab03_services_actions",
+            "connection_file": kernel.client.connection_file,
+            "folder": str(tmp_path),
+        }
+        verdict = judge.judge_one(request, {kernel.client.connection_file: kernel})
+    assert (verdict.passed, verdict.timeout) == (False, True), verdict
+    assert verdict.message.startswith(
+        "timeout: no server for '/nobody_here/set_parameters (rcl_interfaces/srv/SetParameters)'"
+        " appeared within 0.5 s"
+    ), verdict.message
+    with pytest.raises(lab03.CheckFailed, match="reading the parameters of 'x' failed: no"):
+        with lab03.call_failing("reading the parameters of 'x'"):
+            raise ParameterError("no parameter")
+
+
+def test_a_node_whose_callback_raised_is_told_at_once_not_waited_for(
+    session: Session, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A service callback that returns nothing makes rclpy raise in the kernel, and the
+    node answers nothing more: the kernel says so, and the judge stops waiting for the
+    answer (its limit here an hour) and tells the likely mistake."""
+    from rosbook.labs import lab03
+
+    monkeypatch.setattr(lab03, "DISCOVERY_S", 3600.0)
+    code = lab03_kernel_code(("clock_server",))
+    assert code.count("return response") == 1
+    verdicts: list[judge.Verdict] = []
+    with judged_kernel(code.replace("return response", "response")) as kernel:
+        request = {
+            "check": "test_clock_server",
+            "assignment": "lab03_services_actions",
+            "connection_file": kernel.client.connection_file,
+            "folder": str(tmp_path),
+        }
+        worker = threading.Thread(
+            target=lambda: verdicts.append(
+                judge.judge_one(request, {request["connection_file"]: kernel})
+            ),
+            daemon=True,
+        )
+        worker.start()
+        worker.join(300)  # a hang guard: it takes about a second
+        assert verdicts, "the judge still waited for the answer after 300 s"
+    verdict = verdicts[0]
+    assert (verdict.passed, verdict.timeout) == (False, False), verdict
+    assert verdict.message.startswith("the service callback returned nothing (None)"), verdict

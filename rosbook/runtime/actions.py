@@ -20,7 +20,7 @@ from rclpy.node import Node
 from rclpy.task import Future
 
 from rosbook.runtime.interfaces import interface_name
-from rosbook.runtime.services import ServiceCallError, wait_for_server
+from rosbook.runtime.services import ServiceTimeout, wait_for_server
 from rosbook.runtime.session import spin_node_until
 
 #: Names of ``action_msgs/msg/GoalStatus`` values.
@@ -115,6 +115,7 @@ def run_goal(
     goal: Any,
     *,
     timeout: float = 10.0,
+    discovery: float | None = None,
     cancel_after: int | None = None,
     on_feedback: Callable[[Any], None] | None = None,
     on_accepted: Callable[[str], None] | None = None,
@@ -122,6 +123,9 @@ def run_goal(
     spin: Callable[[Callable[[], bool], float], bool] | None = None,
 ) -> GoalRun:
     """Send ``goal`` to ``action`` and follow it to its end (or until ``timeout``).
+
+    ``discovery`` bounds, in wall-clock seconds, the wait for the server to be found
+    (default: ``timeout``). Either limit passing raises ``ServiceTimeout``.
 
     ``cancel_after=n`` requests cancellation once ``n`` feedback messages arrived.
     ``on_feedback(feedback)`` and ``on_accepted(goal_id_hex)`` are called as they come;
@@ -141,7 +145,7 @@ def run_goal(
     run = GoalRun()
     label = f"{node.resolve_topic_name(action)} ({interface_name(action_type)})"
     try:
-        wait_for_server(client, label, timeout)
+        wait_for_server(client, label, timeout if discovery is None else discovery)
         if on_ready is not None:
             on_ready()
 
@@ -156,7 +160,9 @@ def run_goal(
 
         sent = client.send_goal_async(goal, feedback_callback=feedback)
         if not spin(sent.done, timeout):
-            raise ServiceCallError(f"action server '{label}' did not answer the goal request")
+            raise ServiceTimeout(
+                f"action server '{label}' did not answer the goal request within {timeout:g} s"
+            )
         handle = sent.result()
         run.accepted = bool(handle.accepted)
         if not run.accepted:

@@ -31,13 +31,19 @@ class ServiceCallError(RuntimeError):
     """A call that got no response: no server, or no answer before the deadline."""
 
 
+class ServiceTimeout(ServiceCallError, TimeoutError):
+    """A call whose wall-clock limit passed: no server appeared, or none answered, in
+    time. On a loaded machine that is not proof that none would have: a check given
+    this reports a timeout, never a wrong answer."""
+
+
 def wait_for_server(client: Any, name: str, timeout: float = DISCOVERY_TIMEOUT_S) -> None:
     """Wait until ``client`` (service or action) sees a server, or say there is none."""
     ready = (
         client.wait_for_service if hasattr(client, "wait_for_service") else client.wait_for_server
     )
     if not ready(timeout_sec=timeout):
-        raise ServiceCallError(f"no server for '{name}' appeared within {timeout:g} s")
+        raise ServiceTimeout(f"no server for '{name}' appeared within {timeout:g} s")
 
 
 def call(
@@ -50,8 +56,8 @@ def call(
 ) -> Any:
     """Call ``service`` from ``node`` and return the response (bounded by ``timeout``).
 
-    Raises ``ServiceCallError`` naming the service and its type when no server is
-    found or none answers in time. The client is destroyed afterwards.
+    Raises ``ServiceTimeout`` (a ``ServiceCallError``) naming the service and its type
+    when no server is found or none answers in time. The client is destroyed afterwards.
     """
     client = node.create_client(srv_type, service)
     full_name = node.resolve_service_name(service)
@@ -60,7 +66,7 @@ def call(
         future = client.call_async(srv_type.Request() if request is None else request)
         if not spin_node_until(node, future.done, timeout):
             client.remove_pending_request(future)
-            raise ServiceCallError(
+            raise ServiceTimeout(
                 f"'{full_name}' ({interface_name(srv_type)}) did not answer within "
                 f"{timeout:g} s: is its server's node being spun?"
             )
