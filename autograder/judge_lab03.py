@@ -147,12 +147,16 @@ class RemoteClock:
             guard=LOCKSTEP_GUARD_S,
         )
         self.following = self.kernel.send("follow_clock", FOREVER_S, HOLD_GUARD_S, gate)
-        wait_for(
-            lambda: self.acks.get_publisher_count() > 0 and self.acked[-1]["now"] >= 0,
-            self.node,
-            what=f"node '{name}' did not start on /clock",
-            guard=LOCKSTEP_GUARD_S,
-        )
+        try:
+            wait_for(
+                lambda: self.acks.get_publisher_count() > 0 and self.acked[-1]["now"] >= 0,
+                self.node,
+                what=f"node '{name}' did not start on /clock",
+                guard=LOCKSTEP_GUARD_S,
+            )
+        except NodeRaised:  # at its first time: the kernel's error (a KernelError) says why
+            self.kernel.answer(self.following, HOLD_GUARD_S)
+            raise
 
     def _on_ack(self, msg: String) -> None:
         self.acked.append(_ack(msg.data))

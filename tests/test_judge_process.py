@@ -335,6 +335,17 @@ def judged_kernel(code: str) -> Iterator[judge.Kernel]:
         km.shutdown_kernel(now=True)
 
 
+def judge_check(kernel: judge.Kernel, assignment: str, check: str, folder: Path) -> judge.Verdict:
+    """The judge's verdict on ``check`` of ``assignment`` for the student in ``kernel``."""
+    request = {
+        "check": check,
+        "assignment": assignment,
+        "connection_file": kernel.client.connection_file,
+        "folder": str(folder),
+    }
+    return judge.judge_one(request, {kernel.client.connection_file: kernel})
+
+
 #: Lab 1's CounterSubscriber whose work is done by a thread, in order, from a queue;
 #: ``WORK`` says how that thread goes.
 QUEUED_SUBSCRIBER = """
@@ -418,13 +429,7 @@ def test_a_script_still_running_after_ctrl_c_is_a_timeout_not_wrong(
         + talker.replace(deaf, "        threading.Event().wait()  # never ends\n    finally:")
     )
     with judged_kernel("") as kernel:
-        request = {
-            "check": "test_talker_script",
-            "assignment": "lab01_nodes_topics",
-            "connection_file": kernel.client.connection_file,
-            "folder": str(tmp_path),
-        }
-        verdict = judge.judge_one(request, {kernel.client.connection_file: kernel})
+        verdict = judge_check(kernel, "lab01_nodes_topics", "test_talker_script", tmp_path)
     assert (verdict.passed, verdict.timeout) == (False, True), verdict
     assert verdict.message.startswith("timeout: talker.py was still running 15 s after Ctrl-C")
 
@@ -458,13 +463,7 @@ def test_a_node_answering_its_parameters_late_is_waited_for_not_marked_wrong(
     guard: a right node on a starved machine that answers after 3 s passes."""
     code = lab03_kernel_code(("rate_parameter",), LATE_PARAMETERS)
     with judged_kernel(code) as kernel:
-        request = {
-            "check": "test_rate_parameter",
-            "assignment": "lab03_services_actions",
-            "connection_file": kernel.client.connection_file,
-            "folder": str(tmp_path),
-        }
-        verdict = judge.judge_one(request, {kernel.client.connection_file: kernel})
+        verdict = judge_check(kernel, "lab03_services_actions", "test_rate_parameter", tmp_path)
     assert verdict.passed, verdict
 
 
@@ -485,13 +484,7 @@ def test_a_call_whose_limit_passed_is_a_timeout_not_wrong(
 
     monkeypatch.setitem(judge_lab03.CHECKS, "test_rate_parameter", unanswered)
     with judged_kernel("") as kernel:
-        request = {
-            "check": "test_rate_parameter",
-            "assignment": "lab03_services_actions",
-            "connection_file": kernel.client.connection_file,
-            "folder": str(tmp_path),
-        }
-        verdict = judge.judge_one(request, {kernel.client.connection_file: kernel})
+        verdict = judge_check(kernel, "lab03_services_actions", "test_rate_parameter", tmp_path)
     assert (verdict.passed, verdict.timeout) == (False, True), verdict
     assert verdict.message.startswith(
         "timeout: no server for '/nobody_here/set_parameters (rcl_interfaces/srv/SetParameters)'"
@@ -515,15 +508,9 @@ def test_a_node_whose_callback_raised_is_told_at_once_not_waited_for(
     assert code.count("return response") == 1
     verdicts: list[judge.Verdict] = []
     with judged_kernel(code.replace("return response", "response")) as kernel:
-        request = {
-            "check": "test_clock_server",
-            "assignment": "lab03_services_actions",
-            "connection_file": kernel.client.connection_file,
-            "folder": str(tmp_path),
-        }
         worker = threading.Thread(
             target=lambda: verdicts.append(
-                judge.judge_one(request, {request["connection_file"]: kernel})
+                judge_check(kernel, "lab03_services_actions", "test_clock_server", tmp_path)
             ),
             daemon=True,
         )
@@ -533,3 +520,28 @@ def test_a_node_whose_callback_raised_is_told_at_once_not_waited_for(
     verdict = verdicts[0]
     assert (verdict.passed, verdict.timeout) == (False, False), verdict
     assert verdict.message.startswith("the service callback returned nothing (None)"), verdict
+
+
+#: Lab 3's RatePublisher with a callback that raises as soon as the node runs: at the
+#: first time the judge's clock gives it.
+RAISES_AT_ONCE = """
+class RatePublisher(RatePublisher):
+    def __init__(self, node_name='rate_publisher'):
+        super().__init__(node_name)
+        self.create_timer(0.0, self.fail)
+
+    def fail(self):
+        raise ValueError('the first callback fails')
+"""
+
+
+def test_a_callback_that_raises_at_the_first_time_is_named_not_a_judge_failure(
+    session: Session, tmp_path: Path
+) -> None:
+    """The kernel's error, even before the node acked any time, is the verdict's reason."""
+    with judged_kernel(lab03_kernel_code(("rate_parameter",), RAISES_AT_ONCE)) as kernel:
+        verdict = judge_check(kernel, "lab03_services_actions", "test_rate_parameter", tmp_path)
+    assert (verdict.passed, verdict.timeout, verdict.broken) == (False, False, False), verdict
+    assert verdict.message == (
+        "a callback of node 'rate_publisher' raised ValueError: the first callback fails"
+    ), verdict
