@@ -17,7 +17,6 @@ from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
-import nbformat
 import pytest
 
 from autograder import judge, sandbox
@@ -25,7 +24,7 @@ from autograder.judge_lab01 import check_counter_subscriber
 from autograder.verdicts import judging
 from rosbook.runtime.kernels import UnixSocketKernelManager
 from rosbook.runtime.session import Session
-from tests.labtools import grade_id, notebook_path, solution_answers, strip_markers
+from tests.labtools import answered, grade_id, notebook_path, solution_answers, strip_markers
 
 
 def test_the_judge_starts_with_the_submission_before_any_cell() -> None:
@@ -436,10 +435,8 @@ def test_a_script_still_running_after_ctrl_c_is_a_timeout_not_wrong(
 
 def lab03_kernel_code(grade_ids: tuple[str, ...], extra: str = "") -> str:
     """Lab 3's set-up cell and the solution of ``grade_ids``, then ``extra``."""
-    notebook = nbformat.read(notebook_path("lab03_services_actions"), as_version=4)
-    setup = next(c.source for c in notebook.cells if grade_id(c) == "setup")
-    answers = solution_answers("lab03_services_actions")
-    return "\n\n".join([setup, *(strip_markers(answers[g]) for g in grade_ids), extra])
+    cells = {grade_id(c): c.source for c in answered("lab03_services_actions").cells}
+    return "\n\n".join([cells["setup"], *(cells[g] for g in grade_ids), extra])
 
 
 #: Lab 3's RatePublisher, right, on a starved machine: it answers the first change of
