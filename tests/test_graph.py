@@ -177,6 +177,47 @@ def test_an_empty_graph_is_trusted_only_after_the_observer_waited_as_long_as_it_
     assert waited >= 3.0, f"an empty graph trusted after {waited:.2f} s"
 
 
+def test_endpoints_whose_node_is_not_yet_named_are_waited_for_not_taken_for_an_empty_graph(
+    system: dict[str, Any],
+) -> None:
+    """Discovery brings a participant's endpoints and its nodes' names separately; the
+    names can come seconds later (a lost sample waits for the next heartbeat). A cold
+    ``ros2 node list -a -c`` in CI printed 0 beside 11 running nodes: seeing no node
+    name, it trusted an empty graph. A snapshot with another node's endpoints is not an
+    empty graph, named or not. (Which sample is late cannot be chosen on a real graph:
+    this feeds a real snapshot, its names as rmw reports them until they arrive.)"""
+    observer = graph.observer()
+    own = (observer.get_namespace(), observer.get_name())
+    assert graph.wait_for(lambda g: "/talker" in graph.node_names(g), timeout=60)
+    nodes, topics, endpoints, services = graph.snapshot()
+    unnamed = tuple(
+        tuple(
+            (ns, name, kind) if (ns, name) == own else ("/", graph.UNKNOWN_NODE, kind)
+            for ns, name, kind in topic
+        )
+        for topic in endpoints
+    )
+    names_late = (
+        tuple(n for n in nodes if n == observer.get_fully_qualified_name()),
+        topics,
+        unnamed,
+        services,
+    )
+    long_ago = time.monotonic() - 60.0  # made and discovering for a minute
+    watch = graph._Watch(names_late, long_ago)
+    assert not watch.settled(
+        names_late, own, start=long_ago, at_least=0.0, quiet=0.0, made=long_ago
+    )
+    alone = (
+        names_late[0],
+        (),
+        (),
+        (),
+    )  # nobody else: trusted once the wait for a first node passed
+    watch = graph._Watch(alone, long_ago)
+    assert watch.settled(alone, own, start=long_ago, at_least=0.0, quiet=0.0, made=long_ago)
+
+
 def test_bad_inputs_raise_one_line_errors(system: dict[str, Any]) -> None:
     with pytest.raises(graph.GraphError, match=r"^topic '/nope' does not exist on the graph"):
         graph.echo("/nope")

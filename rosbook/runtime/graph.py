@@ -184,7 +184,7 @@ def discovering_since(node: Node, started: float) -> None:
 
 class _Watch:
     """What an observer's discovery has shown: the last snapshot, when it last changed,
-    how long the first visible node took to show up, whether it ever settled."""
+    how long the first other node took to show up, whether it ever settled."""
 
     def __init__(self, shot: tuple[object, ...], t: float) -> None:
         self.last, self.changed = shot, t
@@ -192,17 +192,23 @@ class _Watch:
         self.settled_once = False
 
     def settled(
-        self, watcher: Node, *, start: float, at_least: float, quiet: float, made: float
+        self,
+        shot: tuple[object, ...],
+        own: tuple[str, str],
+        *,
+        start: float,
+        at_least: float,
+        quiet: float,
+        made: float,
     ) -> bool:
-        """Whether discovery has settled now (``settle``); ``start``: when the observer
+        """Whether discovery has settled now (``settle``), ``shot`` being the observer's
+        ``snapshot`` now and ``own`` its (namespace, name); ``start``: when the observer
         began discovering; ``made``: when it was made."""
         t = time.monotonic()
-        shot = snapshot(watcher)
         if shot != self.last:
             self.last, self.changed = shot, t
         quiet_for = t - self.changed
-        visible = any(not is_hidden(n) for n in self.last[0])  # type: ignore[attr-defined]
-        if not visible and not self.settled_once:
+        if not _others_seen(self.last, own) and not self.settled_once:
             # an empty graph: trusted once the observer, made, has waited for the others'
             # answers as long as its own making took (a starved machine answers late)
             waited = max(FIRST_NODE_WAIT_S, at_least, made - start)
@@ -214,6 +220,17 @@ class _Watch:
             done = t - start >= at_least and quiet_for >= needed and _complete(self.last)
         self.settled_once |= done
         return done
+
+
+def _others_seen(shot: tuple[object, ...], own: tuple[str, str]) -> bool:
+    """Whether ``snapshot`` output shows anyone but the observer ``own`` (namespace,
+    name): a visible node, or an endpoint of another node, hidden or not yet named (its
+    endpoints can arrive seconds before its name: discovery can then not have settled)."""
+    nodes: tuple[str, ...] = shot[0]  # type: ignore[assignment]
+    endpoints: tuple[tuple[tuple[str, str, str], ...], ...] = shot[2]  # type: ignore[assignment]
+    return any(not is_hidden(n) for n in nodes) or any(
+        (namespace, name) != own for topic in endpoints for namespace, name, _ in topic
+    )
 
 
 #: Observers whose discovery is followed across calls (``keep_watching``).
@@ -229,8 +246,9 @@ def keep_watching(node: Node) -> Callable[[], bool]:
     called = time.monotonic()
     start, made = _SINCE.get(node, called), _MADE.get(node, called)
     watch = _WATCHES.setdefault(node, _Watch(snapshot(node), called))
+    own = (node.get_namespace(), node.get_name())
     return lambda: watch.settled(
-        node, start=start, at_least=ANNOUNCE_PERIOD_S, quiet=QUIET_S, made=made
+        snapshot(node), own, start=start, at_least=ANNOUNCE_PERIOD_S, quiet=QUIET_S, made=made
     )
 
 
@@ -252,8 +270,9 @@ def settle(
     from the observer's start (its own start-up too: a machine that starved it will
     deliver the others' endpoints in slow pieces as well): the graph settles fast where
     answers come fast and waits longer where they come late.
-    While no visible node is known, "nothing new" proves little (the first
-    announcements may still be under way), so an empty graph is only trusted
+    While no one else is known (no visible node, no endpoint of another node, named or
+    not), "nothing new" proves little (the first announcements may still be under way;
+    a node's endpoints can come seconds before its name), so an empty graph is only trusted
     ``FIRST_NODE_WAIT_S`` after the observer was made, and no sooner than its making
     took (a command starved while it started will hear the others late as well).
     ``at_least`` counts from ``discovering_since`` when the observer's start was
@@ -265,11 +284,14 @@ def settle(
     called = time.monotonic()
     start, made = _SINCE.get(watcher, called), _MADE.get(watcher, called)
     watch = _WATCHES.get(watcher) or _Watch(snapshot(watcher), called)
+    own = (watcher.get_namespace(), watcher.get_name())
 
     def settled() -> bool:
         if until is not None and until():
             return True
-        return watch.settled(watcher, start=start, at_least=at_least, quiet=quiet, made=made)
+        return watch.settled(
+            snapshot(watcher), own, start=start, at_least=at_least, quiet=quiet, made=made
+        )
 
     return _spin_until(watcher, settled, timeout)
 
