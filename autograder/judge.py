@@ -93,6 +93,17 @@ def judged_checks(assignment_id: str) -> dict[str, Callable[[Judgement], None]]:
     return importlib.import_module(JUDGED_LABS[assignment_id]).CHECKS  # type: ignore[no-any-return]
 
 
+def holds_participant(assignment_id: str) -> bool:
+    """Whether the judge of ``assignment_id`` keeps one DDS participant from its first
+    check to its end (its module's ``HOLD_PARTICIPANT``): a judge whose checks start
+    and stop other processes' nodes (lab 6's launches) never makes or destroys one while
+    their discovery is in flight, where Fast DDS's teardown hang waits (below)."""
+    module = JUDGED_LABS.get(assignment_id)
+    return module is not None and bool(
+        getattr(importlib.import_module(module), "HOLD_PARTICIPANT", False)
+    )
+
+
 def shared_env(assignment_id: str, folder: Path) -> dict[str, str]:
     """What the judge of ``assignment_id`` makes once for a whole grading run (its
     module's ``share(folder)``: lab 6's reference build), as the environment that gives
@@ -641,6 +652,10 @@ def drain(node: Node, rounds: int = 20) -> None:
 #   with ``set_listener(nullptr)``, which waits for a discovery callback in flight
 #   (another node leaving at that moment); in the wheels' build that wait spins holding
 #   the lock the callback needs to finish (eProsima/Fast-DDS#6513), until SIGKILL.
+#   rmw_fastrtps_cpp destroys a context's participant with its last node: a judge whose
+#   nodes all went while another process's nodes started or stopped met it too (lab 6:
+#   "the judge gave no verdict" on a two-robot launch); such a judge holds its
+#   participant (``holds_participant``).
 RCLPY_SIGINT_RACE = "the given context is not valid"
 
 
@@ -694,7 +709,10 @@ def judge_one(request: dict[str, Any], kernels: dict[str, Kernel]) -> Verdict:
         request.get("sandbox_pid"),
         cell_timeout=request.get("cell_timeout"),
     )
+    held = holds_participant(request["assignment"])
     try:
+        if held:
+            ros.hold_participant()
         check(j)
         return Verdict(grade_id, True, outputs=j.outputs)
     except (JudgeTimeout, StillRunning, TimeoutError) as exc:  # a hang guard, not a verdict
@@ -707,7 +725,8 @@ def judge_one(request: dict[str, Any], kernels: dict[str, Kernel]) -> Verdict:
         return Verdict(grade_id, False, f"the judge failed on this check:\n{tail}", broken=True)
     finally:
         ros.reset()
-        ros.hold_participant(False)
+        if not held:
+            ros.hold_participant(False)
         try:
             kernel.call("stop", guard=10.0)
         except Exception:  # noqa: S110 - the kernel's state is the student's

@@ -66,6 +66,10 @@ EXECUTABLES = {"talker": "robot_talk.talker:main", "listener": "robot_talk.liste
 DEPENDENCIES = ["rclpy", "std_msgs"]
 INSTALLED = "launch/talk.launch.py"
 RATES = {"robot1": 2.0, "robot2": 5.0}
+#: The judge keeps one participant from its first check to its end (``judge.
+#: holds_participant``): its watchers and probes come and go while the student's nodes
+#: start and stop, and a participant destroyed then can hang (Fast DDS's teardown hang).
+HOLD_PARTICIPANT = True
 #: Simulated seconds the two robots run for, in steps of /clock.
 SECONDS, STEP = 2.0, 0.05
 

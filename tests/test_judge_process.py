@@ -24,7 +24,14 @@ from autograder.judge_lab01 import check_counter_subscriber
 from autograder.verdicts import judging
 from rosbook.runtime.kernels import UnixSocketKernelManager
 from rosbook.runtime.session import Session
-from tests.labtools import answered, grade_id, notebook_path, solution_answers, strip_markers
+from tests.labtools import (
+    answered,
+    grade_id,
+    notebook_path,
+    replace_in_answer,
+    solution_answers,
+    strip_markers,
+)
 
 
 def test_the_judge_starts_with_the_submission_before_any_cell() -> None:
@@ -314,10 +321,10 @@ def test_a_gated_reading_alone_carries_its_time_into_the_kernel(session: Session
 
 
 @contextmanager
-def judged_kernel(code: str) -> Iterator[judge.Kernel]:
-    """A kernel that ran ``code`` (a student's cells), as the judge reaches it."""
+def judged_kernel(code: str, cwd: Path | None = None) -> Iterator[judge.Kernel]:
+    """A kernel that ran ``code`` (a student's cells) in ``cwd``, as the judge reaches it."""
     km = UnixSocketKernelManager()
-    km.start_kernel()
+    km.start_kernel(**({"cwd": str(cwd)} if cwd else {}))
     kernel = None
     try:
         setup = km.client()
@@ -542,3 +549,32 @@ def test_a_callback_that_raises_at_the_first_time_is_named_not_a_judge_failure(
     assert verdict.message == (
         "a callback of node 'rate_publisher' raised ValueError: the first callback fails"
     ), verdict
+
+
+def test_lab6s_judge_keeps_one_participant_while_the_students_nodes_come_and_go(
+    session: Session, tmp_path: Path
+) -> None:
+    """rmw_fastrtps_cpp destroys a participant with its last node, and Fast DDS can hang
+    for good destroying one while another process's nodes are being discovered or leave
+    (``judge.py``, eProsima/Fast-DDS#6513). Lab 6's judge made and destroyed one for
+    each watcher of a launch, and in a suite run gave no verdict on a two-robot launch
+    (a "timeout" after 300 s). It now holds one participant from its first check on,
+    through a launch, its stop and the next check."""
+    lab6 = "lab06_launch_system"
+    notebook = answered(
+        lab6, **replace_in_answer(lab6, "two_robots", "namespace=robot, parameters", "parameters")
+    )
+    code = "\n".join(c.source for c in notebook.cells if grade_id(c) in ("setup", "two_robots"))
+    (tmp_path / "home").mkdir()
+    try:
+        with judged_kernel(code, tmp_path / "home") as kernel:
+            keepers = []
+            for _ in range(2):
+                verdict = judge_check(kernel, lab6, "test_two_robots", tmp_path)
+                assert "not expected: ['/talker', '/talker']" in verdict.message, verdict
+                keepers.append(session.participant_keeper)
+        first = keepers[0]
+        assert first is not None and first.context.ok(), "the participant went with the check"
+        assert keepers[1] is first, "a participant was made again"
+    finally:
+        session.hold_participant(False)

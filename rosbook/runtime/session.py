@@ -114,6 +114,12 @@ class Session:
             else:
                 self._drop_keeper()
 
+    @property
+    def participant_keeper(self) -> Node | None:
+        """The hidden node that holds this process's participant (``hold_participant``),
+        while it is held."""
+        return self._keeper
+
     def _keep_participant(self) -> None:
         if not self._hold or not rclpy.ok():
             return
