@@ -343,6 +343,20 @@ class _RosbookJudgeAgent:
             self.executor.spin_once(timeout_sec=0.01)
         self._answer(None)
 
+    def await_writers(self, topic, gids, guard):
+        """Wait until this participant has discovered every publisher ``gids`` on
+        ``topic`` (the node's subscription takes nothing from one it has not: what that
+        one sent before is lost, not late); whether it has, within ``guard`` seconds."""
+        import time
+        end = time.monotonic() + guard
+        while True:
+            known = {bytes(e.endpoint_gid).hex()
+                     for e in self.node.get_publishers_info_by_topic(topic)}
+            if set(gids) <= known or time.monotonic() > end:
+                break
+            time.sleep(0.01)
+        self._answer(set(gids) <= known)
+
     def spin_until_length(self, attribute, length, guard):
         import time
         end = time.monotonic() + guard

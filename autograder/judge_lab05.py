@@ -31,6 +31,7 @@ from nav_msgs.msg import Odometry
 
 from autograder.judge import CheckFailed, Judgement, JudgeTimeout, KernelError
 from autograder.judge_lab01 import (
+    await_discovered_by,
     require_endpoint,
     require_name,
     wait_for,
@@ -121,6 +122,7 @@ def drive(
             what=f"node '{name}' and the simulator did not find each other on odom and cmd_vel",
             guard=LOCKSTEP_GUARD_S,
         )
+        await_discovered_by(j, sim.node, "/odom", name)  # its first odom is not lost
         until = finish.until(sim)  # type: ignore[arg-type]
         with callbacks_explained(), remote_clock(j, name, gate="/odom") as clock:
             wait_until_discovered(clock.acked, clock.node, "/cmd_vel", sim.node.get_name(), name)

@@ -175,6 +175,46 @@ def test_a_kernel_says_which_subscriptions_its_node_can_send_to(session: Session
         assert run.finish() == [{"timeout": False}]
 
 
+def test_a_kernel_says_when_it_has_discovered_the_judges_publisher(
+    session: Session, tmp_path: Path
+) -> None:
+    """The other way round: a subscription takes nothing from a publisher its own
+    participant has not discovered, and what that publisher sent before is lost. Lab 1's
+    judge waited for its publisher to match on its own side only, and lost the first
+    value sent to a subscriber on a busy machine (the 7 of [7, -2, 0, ...]). The kernel
+    says when it has discovered the judge's publisher (``await_writers``): not for a
+    publisher that does not exist, and for the judge's once discovery found it."""
+    from std_msgs.msg import Int64
+
+    from autograder.judge_lab01 import await_discovered_by
+
+    listener = (
+        "from rclpy.node import Node\n"
+        "from std_msgs.msg import Int64\n"
+        "class Listener(Node):\n"
+        "    def __init__(self):\n"
+        "        super().__init__('listener')\n"
+        "        self.received = []\n"
+        "        self.create_subscription(Int64, 'counter', self.take, 10)\n"
+        "    def take(self, msg):\n"
+        "        self.received.append(msg.data)\n"
+    )
+    with judged_kernel(listener) as kernel:
+        assert kernel.call("start", "Listener", {}, False)["name"] == "listener"
+        sender = judge.ros_node("judge_sender")
+        try:
+            assert not kernel.call("await_writers", "/counter", ["00" * 16], 0.2)
+            pub = sender.create_publisher(Int64, "/counter", 10)
+            assert session.spin_until(lambda: pub.get_subscription_count() > 0, sender, timeout=60)
+            await_discovered_by(judge.Judgement(kernel, tmp_path), sender, "/counter", "listener")
+            (mine,) = sender.get_publishers_info_by_topic("/counter")
+            assert kernel.call("await_writers", "/counter", [bytes(mine.endpoint_gid).hex()], 0.0)
+            pub.publish(Int64(data=7))
+            assert kernel.call("spin_until_length", "received", 1, 30.0) == [7]
+        finally:
+            session.remove(sender)
+
+
 def test_a_kernel_acks_a_time_once_every_callback_due_then_has_run(session: Session) -> None:
     """The judge stamps what the kernel's node sent with the time it acked: every
     callback due at that time must have run before the ack, however many fall due
