@@ -188,25 +188,16 @@ def test_a_kernel_says_when_it_has_discovered_the_judges_publisher(
 
     from autograder.judge_lab01 import await_discovered_by
 
-    listener = (
-        "from rclpy.node import Node\n"
-        "from std_msgs.msg import Int64\n"
-        "class Listener(Node):\n"
-        "    def __init__(self):\n"
-        "        super().__init__('listener')\n"
-        "        self.received = []\n"
-        "        self.create_subscription(Int64, 'counter', self.take, 10)\n"
-        "    def take(self, msg):\n"
-        "        self.received.append(msg.data)\n"
-    )
-    with judged_kernel(listener) as kernel:
-        assert kernel.call("start", "Listener", {}, False)["name"] == "listener"
+    with judged_kernel(QUEUED_SUBSCRIBER + IN_ORDER) as kernel:
+        assert kernel.call("start", "CounterSubscriber", {}, False)["name"] == "counter_subscriber"
         sender = judge.ros_node("judge_sender")
         try:
             assert not kernel.call("await_writers", "/counter", ["00" * 16], 0.2)
             pub = sender.create_publisher(Int64, "/counter", 10)
             assert session.spin_until(lambda: pub.get_subscription_count() > 0, sender, timeout=60)
-            await_discovered_by(judge.Judgement(kernel, tmp_path), sender, "/counter", "listener")
+            await_discovered_by(
+                judge.Judgement(kernel, tmp_path), sender, "/counter", "counter_subscriber"
+            )
             (mine,) = sender.get_publishers_info_by_topic("/counter")
             assert kernel.call("await_writers", "/counter", [bytes(mine.endpoint_gid).hex()], 0.0)
             pub.publish(Int64(data=7))
@@ -406,6 +397,12 @@ class CounterSubscriber(Node):
         self.inbox = queue.Queue()
         self.subscription = self.create_subscription(Int64, 'counter', self.inbox.put, 10)
         threading.Thread(target=self.work, daemon=True).start()
+"""
+#: Right: every value, in order.
+IN_ORDER = """
+    def work(self):
+        while True:
+            self.received.append(self.inbox.get().data)
 """
 #: Right, but the thread starts 12 s late: a starved machine, slower than the judge's
 #: 10 s wait for each value.
