@@ -118,8 +118,8 @@ def test_an_exception_in_a_callback_reaches_the_spinning_thread(session: Session
 
 #: Makes an executor of the class named in argv[1] and sends the process SIGINT as the
 #: executor's constructor calls the function named in argv[2]: its first member (its
-#: guard condition) or one made half-way (its work tracker), before the SIGINT guard
-#: condition its ``__del__`` reads.
+#: guard condition), one made half-way (its work tracker), or the SIGINT guard condition
+#: its ``__del__`` reads, made last (an object with a ``__del__`` of its own).
 INTERRUPTED_WHILE_MADE = textwrap.dedent("""
     import importlib, os, signal, sys
     import rclpy
@@ -151,7 +151,11 @@ INTERRUPTED_WHILE_MADE = textwrap.dedent("""
 
 @pytest.mark.parametrize(
     "point",
-    ["rclpy.guard_condition.GuardCondition.__init__", "rclpy.executors._WorkTracker.__init__"],
+    [
+        "rclpy.guard_condition.GuardCondition.__init__",
+        "rclpy.executors._WorkTracker.__init__",
+        "rclpy.signals.SignalHandlerGuardCondition.__init__",  # seen in CI
+    ],
 )
 @pytest.mark.parametrize(
     ("made", "quiet"),
@@ -174,4 +178,4 @@ def test_an_executor_interrupted_while_being_made_writes_nothing_to_stderr(
     if quiet:
         assert done.stderr == ""
     else:
-        assert "AttributeError" in done.stderr and "_sigint_gc" in done.stderr, done.stderr
+        assert "Exception ignored" in done.stderr and "AttributeError" in done.stderr, done.stderr

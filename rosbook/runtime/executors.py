@@ -6,8 +6,14 @@
 half-made object whose ``__del__`` prints "Exception ignored in ... AttributeError" to
 stderr when it is collected, maybe cells later (seen in CI: ``ros2 action send_goal``
 interrupted just after the goal's acceptance; nbgrader scores a test cell 0 when it
-writes to stderr). Both executors here start with ``_sigint_gc = None`` as a class
-attribute, so the half-made one is collected quietly.
+writes to stderr). The executor is not the only half-made object: the SIGINT guard
+condition it makes, interrupted in its own ``__init__``, prints the same from its
+``__del__`` (seen in CI too, in the same place). So the executors here are made with a
+Ctrl-C held back until they are whole (``interrupts_held``), then raised: wherever Python
+owns SIGINT, as in every process of this runtime (rclpy initialised without its signal
+handlers). Where rclpy's handler is installed, swapping Python's handler would drop
+rclpy's, so nothing is held; there both executors start with ``_sigint_gc = None`` as a
+class attribute, and a half-made executor (not its guard condition) is collected quietly.
 
 **A multi-threaded executor without rclpy's Jazzy busy loop (ros2/rclpy#1452).**
 
@@ -32,11 +38,13 @@ rclpy's ``MultiThreadedExecutor`` is overridden).
 from __future__ import annotations
 
 import os
+import signal
 import threading
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from concurrent.futures import ThreadPoolExecutor
+from contextlib import contextmanager
 
-from rclpy import executors
+from rclpy import executors, signals
 from rclpy.context import Context
 from rclpy.executors import (
     ConditionReachedException,
@@ -52,10 +60,37 @@ from rclpy.task import Future, Task
 _QUEUED_WAIT_S = 0.05
 
 
+@contextmanager
+def interrupts_held() -> Iterator[None]:
+    """Hold back a SIGINT (Ctrl-C, a notebook's stop button) that comes during the block
+    and raise its ``KeyboardInterrupt`` once the block is done: in the main thread, while
+    SIGINT is Python's ``default_int_handler`` and rclpy has no signal handler installed;
+    elsewhere the block runs as it is."""
+    if (
+        threading.current_thread() is not threading.main_thread()
+        or signal.getsignal(signal.SIGINT) is not signal.default_int_handler
+        or signals.get_current_signal_handlers_options() != signals.SignalHandlerOptions.NO
+    ):
+        yield
+        return
+    held: list[int] = []
+    signal.signal(signal.SIGINT, lambda signum, frame: held.append(signum))
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, signal.default_int_handler)
+    if held:
+        raise KeyboardInterrupt
+
+
 class SingleThreadedExecutor(executors.SingleThreadedExecutor):
     """rclpy's single-threaded executor, quiet when interrupted while being made."""
 
     _sigint_gc = None  # read by rclpy's __del__; __init__ sets it last
+
+    def __init__(self, *, context: Context | None = None) -> None:
+        with interrupts_held():
+            super().__init__(context=context)
 
 
 class MultiThreadedExecutor(Executor):
@@ -64,7 +99,8 @@ class MultiThreadedExecutor(Executor):
     _sigint_gc = None  # as in SingleThreadedExecutor
 
     def __init__(self, num_threads: int | None = None, *, context: Context | None = None) -> None:
-        super().__init__(context=context)
+        with interrupts_held():
+            super().__init__(context=context)
         if num_threads is None:
             num_threads = len(os.sched_getaffinity(0)) or 2
         self._pool = ThreadPoolExecutor(num_threads)
