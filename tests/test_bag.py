@@ -29,6 +29,14 @@ from rclpy.duration import Duration
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.serialization import deserialize_message
+from rosbags.interfaces import (
+    Qos,
+    QosDurability,
+    QosHistory,
+    QosLiveliness,
+    QosReliability,
+    QosTime,
+)
 from rosbags.rosbag2 import StoragePlugin, Writer
 from rosbags.typesys import Stores, get_typestore
 from std_msgs.msg import String
@@ -222,19 +230,46 @@ def test_record_refuses_an_existing_output_folder_and_no_topics(tmp_path) -> Non
     assert not (tmp_path / "new").exists()
 
 
-@pytest.fixture(scope="module")
-def foreign_bag(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    """A bag written with rosbags' own writer and serializer (no rosbook code): six
-    Strings on /chatter, 0.4 s apart."""
-    path = tmp_path_factory.mktemp("foreign") / "bag"
+#: The QoS of a recorded publisher that keeps its last messages for late joiners.
+LATCHED = Qos(
+    history=QosHistory.KEEP_LAST,
+    depth=10,
+    reliability=QosReliability.RELIABLE,
+    durability=QosDurability.TRANSIENT_LOCAL,
+    deadline=QosTime(0, 0),
+    lifespan=QosTime(0, 0),
+    liveliness=QosLiveliness.AUTOMATIC,
+    liveliness_lease_duration=QosTime(0, 0),
+    avoid_ros_namespace_conventions=False,
+)
+
+#: A subscription of a played topic that gets what the player sent before this process
+#: discovered it (a volatile one would not: on a busy machine that can be the first
+#: messages, as the player starts once it sees the subscription).
+LATE_JOINER = QoSProfile(depth=10, durability=DurabilityPolicy.TRANSIENT_LOCAL)
+
+
+def write_foreign_bag(path: Path, stamps_s: list[float]) -> Path:
+    """A bag written with rosbags' own writer and serializer (no rosbook code): a String
+    ``played K`` on /chatter at each of ``stamps_s``, from a transient-local publisher."""
     store = get_typestore(Stores.ROS2_JAZZY)
     message = store.types["std_msgs/msg/String"]
     with Writer(path, version=9, storage_plugin=StoragePlugin.MCAP) as writer:
-        connection = writer.add_connection("/chatter", "std_msgs/msg/String", typestore=store)
-        for k in range(6):
+        connection = writer.add_connection(
+            "/chatter", "std_msgs/msg/String", typestore=store, offered_qos_profiles=[LATCHED]
+        )
+        for k, stamp in enumerate(stamps_s):
             data = store.serialize_cdr(message(data=f"played {k}"), "std_msgs/msg/String")
-            writer.write(connection, 1_700_000_000_000_000_000 + k * 400_000_000, data)
+            writer.write(connection, 1_700_000_000_000_000_000 + round(stamp * 1e9), data)
     return path
+
+
+@pytest.fixture(scope="module")
+def foreign_bag(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """Six Strings on /chatter, 0.4 s apart (``write_foreign_bag``)."""
+    return write_foreign_bag(
+        tmp_path_factory.mktemp("foreign") / "bag", [0.4 * k for k in range(6)]
+    )
 
 
 def test_play_publishes_a_foreign_bag_in_order_at_its_timing(foreign_bag, node) -> None:
@@ -243,7 +278,7 @@ def test_play_publishes_a_foreign_bag_in_order_at_its_timing(foreign_bag, node) 
         String,
         "chatter",
         lambda msg, info: received.append((msg.data, info["source_timestamp"])),
-        10,
+        LATE_JOINER,
     )
     rate = 4.0
     player = ros2("bag", "play", str(foreign_bag), "-r", str(rate))
@@ -261,9 +296,36 @@ def test_play_publishes_a_foreign_bag_in_order_at_its_timing(foreign_bag, node) 
 
 # play is checked in the fast tier by test_play_publishes_a_foreign_bag_in_order_at_its_timing
 @pytest.mark.slow
+def test_a_late_joiner_of_a_latched_topic_gets_what_the_player_sent_before_it(
+    tmp_path, node
+) -> None:
+    """The player offers the recorded publisher's transient-local QoS, so a subscription
+    that asks for it gets the messages sent before it was there (the book's playback
+    relies on this). The bag's last message is 10 minutes after the others: the player is
+    still running when the late subscription joins, and is stopped then."""
+    bag = write_foreign_bag(tmp_path / "bag", [0.1 * k for k in range(6)] + [600.0])
+    early: list[str] = []
+    node.create_subscription(String, "chatter", lambda msg: early.append(msg.data), LATE_JOINER)
+    player = ros2("bag", "play", str(bag))
+    late: list[str] = []
+    try:
+        assert graph.wait_for(lambda _: len(early) >= 6, node, timeout=TIMEOUT_S), (
+            f"timeout: the first subscription got {early}"
+        )
+        node.create_subscription(String, "chatter", lambda msg: late.append(msg.data), LATE_JOINER)
+        done = graph.wait_for(lambda _: len(late) >= 6, node, timeout=TIMEOUT_S)
+    finally:
+        player.send_signal(signal.SIGINT)
+        finish(player)
+    assert done, f"timeout: the late subscription got {late}"
+    assert late == [f"played {k}" for k in range(6)]
+
+
+# play is checked in the fast tier by test_play_publishes_a_foreign_bag_in_order_at_its_timing
+@pytest.mark.slow
 def test_play_loop_starts_over_until_ctrl_c(foreign_bag, node) -> None:
     received: list[str] = []
-    node.create_subscription(String, "chatter", lambda msg: received.append(msg.data), 10)
+    node.create_subscription(String, "chatter", lambda msg: received.append(msg.data), LATE_JOINER)
     player = ros2("bag", "play", str(foreign_bag), "-r", "20", "--loop")
     try:
         done = graph.wait_for(lambda _: len(received) >= 8, node, timeout=TIMEOUT_S)
@@ -359,8 +421,8 @@ def test_play_publishes_upstreams_bag_byte_for_byte(node) -> None:
         ]
     received: list[tuple[str, bytes]] = []
     for topic, msg_type in (("/test_topic", BasicTypes), ("/array_topic", Arrays)):
-        node.create_subscription(
-            msg_type, topic, lambda data, t=topic: received.append((t, data)), 10, raw=True
+        node.create_subscription(  # the bag's publishers were transient-local
+            msg_type, topic, lambda data, t=topic: received.append((t, data)), LATE_JOINER, raw=True
         )
     player = ros2("bag", "play", str(bag))
     try:
