@@ -32,7 +32,6 @@ from rclpy.event_handler import (
     QoSRequestedIncompatibleQoSInfo,
     SubscriptionEventCallbacks,
 )
-from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.qos import (
     DurabilityPolicy,
@@ -47,7 +46,7 @@ from std_msgs.msg import String
 
 from rosbook.runtime.clock import LockstepClock
 from rosbook.runtime.clock import now_ns as _now_ns
-from rosbook.runtime.executors import MultiThreadedExecutor
+from rosbook.runtime.executors import MultiThreadedExecutor, SingleThreadedExecutor
 from rosbook.runtime.session import Session, notebook_session
 
 #: The policies whose mismatch stops a publisher and a subscription from connecting
