@@ -17,14 +17,13 @@ import os
 import queue
 import select
 import shutil
-import signal
 import subprocess
 import sys
 import tempfile
 import threading
 import time
 import uuid
-from collections.abc import Callable, Iterator
+from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor, as_completed
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
@@ -43,6 +42,7 @@ from autograder.progress import Progress
 from autograder.results import Journal, folder_digest, write_atomic, write_tables
 from autograder.worker import Job, refusal
 from rosbook.launch.launcher import _die_with_launcher as die_with_parent
+from rosbook.runtime.interrupts import ctrl_c_held
 from rosbook.runtime.isolation import (
     RUN_MARKER,
     DomainReservation,
@@ -404,25 +404,6 @@ class Task:
     assignment_id: str
     student_id: str
     digest: str  # the submission folder and the lab's source: unchanged means same grade
-
-
-@contextlib.contextmanager
-def ctrl_c_held() -> Iterator[None]:
-    """Ctrl-C (SIGINT) held back while the block runs, acted on after it: a row is never
-    half saved, nor saved and left out of the count "stopped: N of M graded". Only the
-    main thread can hold it (elsewhere the block just runs); an ignored Ctrl-C stays so."""
-    previous = signal.getsignal(signal.SIGINT)
-    if threading.current_thread() is not threading.main_thread() or not callable(previous):
-        yield
-        return
-    caught: list[object] = []
-    signal.signal(signal.SIGINT, lambda signum, frame: caught.append(frame))
-    try:
-        yield
-    finally:
-        signal.signal(signal.SIGINT, previous)
-    if caught:
-        previous(signal.SIGINT, caught[0])
 
 
 class Interrupted(Exception):

@@ -179,3 +179,33 @@ def test_an_executor_interrupted_while_being_made_writes_nothing_to_stderr(
         assert done.stderr == ""
     else:
         assert "Exception ignored" in done.stderr and "AttributeError" in done.stderr, done.stderr
+
+
+#: Inside ``ctrl_c_held``, prints whether the block runs with Python's SIGINT handler
+#: swapped, after ``rclpy.init`` with the signal handler options named in argv[1].
+HELD_OR_NOT = textwrap.dedent("""
+    import signal, sys
+    import rclpy
+    from rclpy.signals import SignalHandlerOptions
+    from rosbook.runtime.interrupts import ctrl_c_held
+
+    rclpy.init(signal_handler_options=getattr(SignalHandlerOptions, sys.argv[1]))
+    with ctrl_c_held():
+        print(signal.getsignal(signal.SIGINT) is not signal.default_int_handler)
+    rclpy.shutdown()
+""")
+
+
+@pytest.mark.parametrize(("options", "held"), [("NO", True), ("ALL", False)])
+def test_a_ctrl_c_is_held_only_where_rclpys_signal_handler_is_not_installed(
+    options: str, held: bool
+) -> None:
+    """Holding a Ctrl-C swaps Python's SIGINT handler, which would drop rclpy's own (that
+    ``rclpy.init`` installs by default): there the block runs as it is."""
+    done = subprocess.run(
+        [sys.executable, "-c", HELD_OR_NOT, options],
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    assert done.stdout.strip() == str(held), (done.stdout, done.stderr)

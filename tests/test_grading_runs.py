@@ -443,7 +443,7 @@ def test_formgrader_shows_the_class_in_a_browser(formgrader: str, browser: objec
 def test_a_ctrl_c_while_a_row_is_saved_comes_after_the_row_is_saved_and_counted() -> None:
     """CI26: Ctrl-C landed between a row's saving and its counting; the grader then said
     "stopped: 0 of 4 submission(s) graded" with one row saved."""
-    from autograder.grade import ctrl_c_held
+    from rosbook.runtime.interrupts import ctrl_c_held
 
     steps = []
     with pytest.raises(KeyboardInterrupt):

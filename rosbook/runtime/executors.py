@@ -9,11 +9,12 @@ interrupted just after the goal's acceptance; nbgrader scores a test cell 0 when
 writes to stderr). The executor is not the only half-made object: the SIGINT guard
 condition it makes, interrupted in its own ``__init__``, prints the same from its
 ``__del__`` (seen in CI too, in the same place). So the executors here are made with a
-Ctrl-C held back until they are whole (``interrupts_held``), then raised: wherever Python
-owns SIGINT, as in every process of this runtime (rclpy initialised without its signal
-handlers). Where rclpy's handler is installed, swapping Python's handler would drop
-rclpy's, so nothing is held; there both executors start with ``_sigint_gc = None`` as a
-class attribute, and a half-made executor (not its guard condition) is collected quietly.
+Ctrl-C held back until they are whole (``rosbook.runtime.interrupts.ctrl_c_held``), then
+raised: wherever Python owns SIGINT, as in every process of this runtime (rclpy
+initialised without its signal handlers). Where rclpy's handler is installed, swapping
+Python's would drop rclpy's, so nothing is held; there both executors start with
+``_sigint_gc = None`` as a class attribute, and a half-made executor (not its guard
+condition) is collected quietly.
 
 **A multi-threaded executor without rclpy's Jazzy busy loop (ros2/rclpy#1452).**
 
@@ -38,13 +39,11 @@ rclpy's ``MultiThreadedExecutor`` is overridden).
 from __future__ import annotations
 
 import os
-import signal
 import threading
-from collections.abc import Callable, Iterator
+from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
-from contextlib import contextmanager
 
-from rclpy import executors, signals
+from rclpy import executors
 from rclpy.context import Context
 from rclpy.executors import (
     ConditionReachedException,
@@ -56,31 +55,10 @@ from rclpy.executors import (
 )
 from rclpy.task import Future, Task
 
+from rosbook.runtime.interrupts import ctrl_c_held
+
 #: The longest the spinning thread waits for a worker to take a queued task (seconds).
 _QUEUED_WAIT_S = 0.05
-
-
-@contextmanager
-def interrupts_held() -> Iterator[None]:
-    """Hold back a SIGINT (Ctrl-C, a notebook's stop button) that comes during the block
-    and raise its ``KeyboardInterrupt`` once the block is done: in the main thread, while
-    SIGINT is Python's ``default_int_handler`` and rclpy has no signal handler installed;
-    elsewhere the block runs as it is."""
-    if (
-        threading.current_thread() is not threading.main_thread()
-        or signal.getsignal(signal.SIGINT) is not signal.default_int_handler
-        or signals.get_current_signal_handlers_options() != signals.SignalHandlerOptions.NO
-    ):
-        yield
-        return
-    held: list[int] = []
-    signal.signal(signal.SIGINT, lambda signum, frame: held.append(signum))
-    try:
-        yield
-    finally:
-        signal.signal(signal.SIGINT, signal.default_int_handler)
-    if held:
-        raise KeyboardInterrupt
 
 
 class SingleThreadedExecutor(executors.SingleThreadedExecutor):
@@ -89,7 +67,7 @@ class SingleThreadedExecutor(executors.SingleThreadedExecutor):
     _sigint_gc = None  # read by rclpy's __del__; __init__ sets it last
 
     def __init__(self, *, context: Context | None = None) -> None:
-        with interrupts_held():
+        with ctrl_c_held():
             super().__init__(context=context)
 
 
@@ -99,7 +77,7 @@ class MultiThreadedExecutor(Executor):
     _sigint_gc = None  # as in SingleThreadedExecutor
 
     def __init__(self, num_threads: int | None = None, *, context: Context | None = None) -> None:
-        with interrupts_held():
+        with ctrl_c_held():
             super().__init__(context=context)
         if num_threads is None:
             num_threads = len(os.sched_getaffinity(0)) or 2
