@@ -29,14 +29,6 @@ from rclpy.duration import Duration
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.serialization import deserialize_message
-from rosbags.interfaces import (
-    Qos,
-    QosDurability,
-    QosHistory,
-    QosLiveliness,
-    QosReliability,
-    QosTime,
-)
 from rosbags.rosbag2 import StoragePlugin, Writer
 from rosbags.typesys import Stores, get_typestore
 from std_msgs.msg import String
@@ -230,28 +222,18 @@ def test_record_refuses_an_existing_output_folder_and_no_topics(tmp_path) -> Non
     assert not (tmp_path / "new").exists()
 
 
-#: The QoS of a recorded publisher that keeps its last messages for late joiners.
-LATCHED = Qos(
-    history=QosHistory.KEEP_LAST,
-    depth=10,
-    reliability=QosReliability.RELIABLE,
-    durability=QosDurability.TRANSIENT_LOCAL,
-    deadline=QosTime(0, 0),
-    lifespan=QosTime(0, 0),
-    liveliness=QosLiveliness.AUTOMATIC,
-    liveliness_lease_duration=QosTime(0, 0),
-    avoid_ros_namespace_conventions=False,
-)
-
 #: A subscription of a played topic that gets what the player sent before this process
 #: discovered it (a volatile one would not: on a busy machine that can be the first
 #: messages, as the player starts once it sees the subscription).
 LATE_JOINER = QoSProfile(depth=10, durability=DurabilityPolicy.TRANSIENT_LOCAL)
 
+#: A recorded publisher that keeps its last messages for late joiners, as a bag stores it.
+LATCHED = bags.bag_qos(LATE_JOINER)
+
 
 def write_foreign_bag(path: Path, stamps_s: list[float]) -> Path:
-    """A bag written with rosbags' own writer and serializer (no rosbook code): a String
-    ``played K`` on /chatter at each of ``stamps_s``, from a transient-local publisher."""
+    """A bag written with rosbags' own writer and serializer: a String ``played K`` on
+    /chatter at each of ``stamps_s``, from a transient-local publisher."""
     store = get_typestore(Stores.ROS2_JAZZY)
     message = store.types["std_msgs/msg/String"]
     with Writer(path, version=9, storage_plugin=StoragePlugin.MCAP) as writer:
