@@ -46,13 +46,13 @@ from std_msgs.msg import String
 
 from autograder.judge import (
     EVENT_GUARD_S,
-    RCLPY_SIGINT_RACE,
     CheckFailed,
     Judgement,
     JudgeTimeout,
     KernelError,
     clock_message,
     clock_publisher,
+    rclpy_raced,
     ros_node,
 )
 from autograder.judge_lab01 import CLOCK_RETRY_S
@@ -341,11 +341,11 @@ def raced(codes: dict[str, int], lines: list[str]) -> bool:
     """A node stopped by a signal after Ctrl-C, or escalated to: a Python node ends with
     an exit code, so this is a hang or crash in shutdown that honest code meets, seen
     with the lab's own nodes on a loaded machine (Fast DDS's teardown hang, ``judge.py``); or a
-    node that failed with rclpy's race in ``spin()`` (``RCLPY_SIGINT_RACE``)."""
+    node that failed with rclpy's own race on Ctrl-C (``rclpy_raced``)."""
     return (
         any(code < 0 and code != -signal.SIGINT for code in codes.values())
         or any(ESCALATED in line for line in lines)
-        or (any(codes.values()) and any(RCLPY_SIGINT_RACE in line for line in lines))
+        or (any(codes.values()) and rclpy_raced("\n".join(lines)))
     )
 
 

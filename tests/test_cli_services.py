@@ -15,6 +15,7 @@ from rclpy.node import Node
 from rosbook import ros
 from rosbook.cli import main
 from rosbook.runtime import graph
+from rosbook.runtime.isolation import kill_marked, reserve_domain
 
 pytestmark = pytest.mark.filterwarnings("ignore::DeprecationWarning")
 
@@ -231,3 +232,37 @@ def test_action_send_goal_cancels_the_goal_on_ctrl_c(servers) -> None:
     assert process.returncode == 0, err
     assert out.strip().endswith("Canceling goal..."), out
     assert "Traceback" not in err, err
+
+
+def test_the_demo_nodes_stop_cleanly_on_ctrl_c_while_a_goal_runs() -> None:
+    """Ctrl-C ends ``rosbook.demos.nodes`` with exit code 0 and nothing on stderr, also
+    while the countdown server sleeps between two steps of a goal (stress run of stop 47:
+    the goal's sleep met a timer its node had destroyed, and rclpy's signal handler shut
+    the context down while ``main`` did). A domain of its own: the servers are not the
+    module's, whose nodes other tests list."""
+    with reserve_domain() as reservation:
+        env = reservation.env()
+        slow = ["--ros-args", "-p", "rate_hz:=0.05"]  # a step every 20 s: Ctrl-C lands in a sleep
+        demo = subprocess.Popen(
+            [sys.executable, "-m", "rosbook.demos.nodes", *slow],
+            env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
+        )  # fmt: skip
+        goal = subprocess.Popen(
+            [sys.executable, "-m", "rosbook.cli", "action", "send_goal", "-f", "/countdown",
+             "test_msgs/action/Fibonacci", "{order: 5}"],
+            env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+        )  # fmt: skip
+        try:
+            lines: list[str] = []
+            while not any(line.startswith("Feedback:") for line in lines):
+                line = goal.stdout.readline()
+                assert line, f"send_goal ended before the first feedback: {lines}"
+                lines.append(line)
+            demo.send_signal(signal.SIGINT)
+            _, err = demo.communicate(timeout=60)  # a guard against a hang
+        finally:
+            goal.kill()
+            demo.kill()
+            goal.communicate()
+            kill_marked(reservation.token)
+    assert (demo.returncode, err) == (0, "")

@@ -140,7 +140,8 @@ def test_feedback_never_shows_hidden_tests(graded: tuple[dict, Path]) -> None:
 
 def test_a_node_that_lost_rclpys_ctrl_c_race_gets_its_launch_run_again() -> None:
     """A node that ends with rclpy's race on Ctrl-C (its context shut down while spin()
-    built a wait set: exit code 1, honest code) has the launch run once more; a node
+    built a wait set, or while main shut it down too: exit code 1, honest code) has the
+    launch run once more; a node
     that fails for a reason of its own does not."""
     from autograder.judge_lab06 import raced
 
@@ -153,6 +154,21 @@ def test_a_node_that_lost_rclpys_ctrl_c_race_gets_its_launch_run_again() -> None
     assert raced({"listener-4": 1, "talker-3": 0}, race)
     assert not raced({"listener-4": 1, "talker-3": 0}, own)
     assert not raced({"listener-4": 0, "talker-3": 0}, [])
+
+    # The same race met by main's rclpy.try_shutdown() (the handler's thread shut the
+    # context down between its check and its shutdown); rclpy.shutdown() after Ctrl-C
+    # is the node's own mistake.
+    def shut(down: str) -> list[str]:
+        return [
+            f'[listener-4]   File "/x/rclpy/utilities.py", line 100, in {down}',
+            f"[listener-4]     g_default_context.{down}()",
+            "[listener-4] rclpy._rclpy_pybind11.RCLError: failed to shutdown: rcl_shutdown "
+            "already called on the given context, at /project/src/rcl/init.c:333",
+            race[1],
+        ]
+
+    assert raced({"listener-4": 1}, shut("try_shutdown"))
+    assert not raced({"listener-4": 1}, shut("shutdown"))
 
 
 def test_a_program_still_running_after_ctrl_c_is_a_timeout_that_shows_its_last_lines() -> None:

@@ -19,13 +19,15 @@ import rclpy
 from rcl_interfaces.msg import ParameterDescriptor, SetParametersResult
 from rclpy.action import ActionServer, CancelResponse
 from rclpy.action.server import ServerGoalHandle
-from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
+from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from rclpy.parameter import Parameter
+from rclpy.signals import SignalHandlerOptions
 from std_srvs.srv import SetBool, Trigger
 from test_msgs.action import Fibonacci
 
 from rosbook.runtime.actions import clients_listen, sleep
+from rosbook.runtime.executors import SingleThreadedExecutor
 
 
 class ClockServer(Node):
@@ -91,14 +93,24 @@ class CountdownServer(Node):
         return Fibonacci.Result(sequence=counted)
 
 
+#: The longest the demo waits for work before it looks for a Ctrl-C (seconds).
+CTRL_C_WAKE_S = 0.1
+
+
 def main(args: list[str] | None = None) -> None:
-    rclpy.init(args=args)
+    """Serve until Ctrl-C. The process owns its Ctrl-C, as every process of the runtime
+    does: with rclpy's signal handler, a thread of rclpy's shuts the context down while
+    the ``finally`` below does too, and one of them fails ("rcl_shutdown already
+    called", seen under stress). Python's ``KeyboardInterrupt`` comes between two waits
+    instead, each at most ``CTRL_C_WAKE_S``."""
+    rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
     nodes = [ClockServer(), CountdownServer()]
     executor = SingleThreadedExecutor()
     for node in nodes:
         executor.add_node(node)
     try:
-        executor.spin()
+        while True:
+            executor.spin_once(timeout_sec=CTRL_C_WAKE_S)
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
     finally:

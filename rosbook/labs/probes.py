@@ -491,7 +491,9 @@ def assert_clean_exit(run: ScriptRun, timeout: float = EXIT_GUARD_S) -> None:
         )
     if code != 0 or "Traceback" in run.output:
         hint = ""
-        if "rcl_shutdown already called" in run.output or "ExternalShutdownException" in run.output:
+        if (
+            "rcl_shutdown already called" in run.output and "in try_shutdown" not in run.output
+        ) or "ExternalShutdownException" in run.output:
             hint = (
                 " On Jazzy, Ctrl-C shuts the context down inside spin(): catch "
                 "(KeyboardInterrupt, ExternalShutdownException) and call "

@@ -40,7 +40,9 @@ async def sleep(node: Node, seconds: float) -> None:
 
     A one-shot timer completes a future the coroutine awaits; meanwhile the executor
     runs other callbacks. The timer is destroyed by the coroutine once it resumes,
-    never inside its own callback (the executor may still hold it there).
+    never inside its own callback (the executor may still hold it there); or when the
+    coroutine is closed unfinished (its process stopped mid-goal), maybe after its node
+    destroyed it: then ``destroy_timer`` does nothing, and no error hides the close.
     """
     future = Future()
 
@@ -52,7 +54,6 @@ async def sleep(node: Node, seconds: float) -> None:
     try:
         await future
     finally:
-        timer.cancel()
         node.destroy_timer(timer)
 
 
