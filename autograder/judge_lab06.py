@@ -323,13 +323,13 @@ def launch_two_robots(
 
 def lingering() -> None:
     """Wait until an earlier launch's nodes have left the graph: killed, they linger
-    until their DDS lease ends (then the launch goes on regardless)."""
+    until their DDS lease ends (then the launch goes on regardless). Live nodes only
+    (``lab06.graph_nodes``): a report left of one that has gone never leaves."""
     watcher = ros_node("judge_lab06_gone")
     expected = set(lab06.expected_nodes(RATES))
 
     def gone() -> bool:
-        names = watcher.get_node_names_and_namespaces()
-        return not expected & {f"{ns.rstrip('/')}/{name}" for name, ns in names}
+        return not expected & set(lab06.graph_nodes(watcher))
 
     try:
         ros.spin_until(gone, watcher, timeout=START_GUARD_S)

@@ -203,3 +203,63 @@ def test_a_program_still_running_after_ctrl_c_is_a_timeout_that_shows_its_last_l
         "\n".join([*[f"line {i}" for i in range(30)][-(STOP_TAIL - 1) :], "ready"])
     )
     assert "line 0\n" not in message
+
+
+def test_lab6_counts_live_nodes_not_reports_left_of_gone_ones(session) -> None:
+    """The judge holds one participant across a class's launches, and its graph can keep
+    the report of a participant that has left (the report processed after the leaving;
+    seen in a stress run: a launch's graph held the previous launch's listener twice).
+    Such a report names nodes without endpoints. Nodes made here without any endpoint
+    (no /rosout, no services, no parameter events) are reported the same way: a name
+    counts as often as live nodes of it publish /rosout, and not at all without an
+    endpoint, so a duplicate and an extra of that kind are not the student's."""
+    import rclpy
+    from rclpy.context import Context
+    from rclpy.node import Node
+    from rclpy.parameter import Parameter
+    from rclpy.signals import SignalHandlerOptions
+
+    from rosbook.labs.lab06 import graph_nodes
+    from rosbook.runtime.session import ros
+
+    watcher = Node("judge_watcher")
+    live = Node("listener", namespace="robot1")  # it logs to /rosout
+    gone = Context()
+    rclpy.init(context=gone, signal_handler_options=SignalHandlerOptions.NO)
+    bare_nodes = []  # held: a node collected is destroyed
+    try:
+        for namespace, name in (("robot1", "listener"), ("/", "talker")):
+            bare = Node(
+                name,
+                namespace=namespace,
+                context=gone,
+                enable_rosout=False,
+                start_parameter_services=False,
+                parameter_overrides=[Parameter("start_type_description_service", value=False)],
+            )
+            bare.destroy_publisher(bare._parameter_event_publisher)
+            bare_nodes.append(bare)
+
+        def reported() -> list[str]:
+            return sorted(
+                f"{ns.rstrip('/')}/{name}"
+                for name, ns in watcher.get_node_names_and_namespaces()
+                if not name.startswith("judge")
+            )
+
+        def logging() -> bool:
+            return any(
+                (i.node_namespace, i.node_name) == ("/robot1", "listener")
+                for i in watcher.get_publishers_info_by_topic("/rosout")
+            )
+
+        everything = ["/robot1/listener", "/robot1/listener", "/talker"]
+        assert ros.spin_until(
+            lambda: reported() == everything and logging(), watcher, timeout=60.0
+        ), f"the graph did not list them all: {reported()}"
+        assert graph_nodes(watcher) == ["/robot1/listener"]
+        live.destroy_node()
+        assert ros.spin_until(lambda: not logging(), watcher, timeout=60.0)
+        assert graph_nodes(watcher) == []
+    finally:
+        rclpy.try_shutdown(context=gone)

@@ -19,12 +19,14 @@ import os
 import re
 import shutil
 import time
+from collections import Counter
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 from functools import cache
 from importlib.resources import files
 from pathlib import Path
 
+from rclpy.node import Node as RclpyNode
 from std_msgs.msg import String
 
 from rosbook.labs.deferral import deferrable
@@ -482,13 +484,49 @@ def assert_stopped_cleanly(codes: dict[str, int], left_running: bool = False) ->
 OWN_NODES = ("_", "probe", "rate", "sim_clock", "sender", "rosout", "judge")
 
 
-def graph_nodes(probe: Probe) -> list[str]:
-    """The nodes on the ROS graph by full name (a name twice: two nodes), not the checks' own."""
-    return sorted(
-        f"{ns.rstrip('/')}/{name}"
-        for name, ns in probe.node.get_node_names_and_namespaces()
+def graph_nodes(watcher: Probe | RclpyNode) -> list[str]:
+    """The live nodes on the ROS graph by full name (a name twice: two nodes), not the
+    checks' own.
+
+    The graph's list of nodes is what each participant last reported of its nodes. A
+    participant that watches for long (the judge holds one across a class's launches)
+    can be left with the report of one that has left: the report came on one DDS
+    thread, the leaving on another, and nothing removes a report that came after its
+    participant left (the "ghost" nodes of a long-running ``ros2`` daemon). Seen in a
+    stress run: a launch's graph held a listener of the previous launch. The endpoints
+    of a participant that left are gone, so a name counts as often as live nodes of that
+    name publish ``/rosout`` (every rclpy node does, unless told not to), at most as
+    often as it is reported; a name without a ``/rosout`` publisher counts as reported
+    if it has any endpoint (a node without ``/rosout`` still publishes parameter events).
+    """
+    node = watcher.node if isinstance(watcher, Probe) else watcher
+    reported = Counter(
+        (ns, name)
+        for name, ns in node.get_node_names_and_namespaces()
         if not name.startswith(OWN_NODES)
     )
+    logging = Counter(
+        (info.node_namespace, info.node_name)
+        for info in node.get_publishers_info_by_topic("/rosout")
+    )
+    counts = Counter(
+        {
+            key: min(times, logging[key]) if logging[key] else times * _has_endpoints(node, key)
+            for key, times in reported.items()
+        }
+    )
+    return sorted(f"{ns.rstrip('/')}/{name}" for ns, name in counts.elements())
+
+
+def _has_endpoints(node: RclpyNode, key: tuple[str, str]) -> bool:
+    namespace, name = key
+    try:
+        return bool(
+            node.get_publisher_names_and_types_by_node(name, namespace)
+            or node.get_subscriber_names_and_types_by_node(name, namespace)
+        )
+    except Exception:  # gone from the graph since it was listed
+        return False
 
 
 def endpoints(probe: Probe, robot: str) -> tuple[dict[str, list[str]], dict[str, list[str]]]:
