@@ -395,7 +395,8 @@ def launched(launch: Program) -> dict[str, int]:
         if not ros.spin_until(settled, watcher, timeout=START_GUARD_S):
             raise JudgeTimeout(
                 f"the launched nodes did not all appear on the ROS graph within "
-                f"{START_GUARD_S:.0f} s (started: {processes()})"
+                f"{START_GUARD_S:.0f} s (started: {processes()}; live on the graph: "
+                f"{lab06.graph_nodes(probe)}; reported: {lab06.reported_nodes(probe)})"
             )
         nodes = lab06.graph_nodes(probe)
         codes = exit_codes(launch.lines)

@@ -498,24 +498,42 @@ def graph_nodes(watcher: Probe | RclpyNode) -> list[str]:
     name publish ``/rosout`` (every rclpy node does, unless told not to), at most as
     often as it is reported; a name without a ``/rosout`` publisher counts as reported
     if it has any endpoint (a node without ``/rosout`` still publishes parameter events).
+    While a ``/rosout`` publisher is not tied to a reported node yet (its node's report
+    is behind its endpoints), the reports are all there is to go by.
     """
-    node = watcher.node if isinstance(watcher, Probe) else watcher
-    reported = Counter(
-        (ns, name)
-        for name, ns in node.get_node_names_and_namespaces()
-        if not name.startswith(OWN_NODES)
-    )
+    node = _graph_node(watcher)
+    everyone = Counter((ns, name) for name, ns in node.get_node_names_and_namespaces())
+    counts = _not_own(everyone)
     logging = Counter(
         (info.node_namespace, info.node_name)
         for info in node.get_publishers_info_by_topic("/rosout")
     )
-    counts = Counter(
-        {
-            key: min(times, logging[key]) if logging[key] else times * _has_endpoints(node, key)
-            for key, times in reported.items()
-        }
-    )
-    return sorted(f"{ns.rstrip('/')}/{name}" for ns, name in counts.elements())
+    if logging.keys() <= everyone.keys():  # each /rosout publisher is tied to a reported node
+        counts = Counter(
+            {
+                key: min(times, logging[key]) if logging[key] else times * _has_endpoints(node, key)
+                for key, times in counts.items()
+            }
+        )
+    return _full_names(counts)
+
+
+def reported_nodes(watcher: Probe | RclpyNode) -> list[str]:
+    """The nodes the graph's reports list, live or not (``graph_nodes``: the live ones)."""
+    node = _graph_node(watcher)
+    return _full_names(_not_own(Counter((ns, n) for n, ns in node.get_node_names_and_namespaces())))
+
+
+def _graph_node(watcher: Probe | RclpyNode) -> RclpyNode:
+    return watcher.node if isinstance(watcher, Probe) else watcher
+
+
+def _not_own(nodes: Counter[tuple[str, str]]) -> Counter[tuple[str, str]]:
+    return Counter({key: n for key, n in nodes.items() if not key[1].startswith(OWN_NODES)})
+
+
+def _full_names(nodes: Counter[tuple[str, str]]) -> list[str]:
+    return sorted(f"{ns.rstrip('/')}/{name}" for ns, name in nodes.elements())
 
 
 def _has_endpoints(node: RclpyNode, key: tuple[str, str]) -> bool:
