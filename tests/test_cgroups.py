@@ -108,8 +108,11 @@ def test_a_memory_hog_is_oom_killed_in_its_sandbox_and_its_neighbour_lives(
 ) -> None:
     """Past its memory limit a sandbox's biggest process is killed; the sandbox next to
     it (same limit, same network) keeps running and allocating."""
+    # it stays until killed: a sandbox's cgroup goes as its process ends, and its
+    # counter is read after that (a stress run found the counter gone)
     neighbour_code = (
         "print('ready')\ninput()\nblock = b'n' * (32 << 20)\nprint('alive', len(block) >> 20)\n"
+        "input()\n"
     )
     hog_code = (
         "blocks = []\nfor i in range(64):\n    blocks.append(b'h' * (16 << 20))\n"
