@@ -29,7 +29,6 @@ from autograder.judge import (
     clock_publisher,
     drain,
     own_domain,
-    rclpy_raced,
     ros_node,
 )
 from rosbook.labs.lab01 import RosoutLog, assert_hello_world, assert_logged, assert_times
@@ -40,6 +39,7 @@ from rosbook.labs.probes import (
     assert_sequence,
     assert_still_running,
     explain_silence,
+    rclpy_raced,
 )
 from rosbook.runtime.session import ros, spin_node_until
 

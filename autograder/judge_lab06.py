@@ -52,12 +52,11 @@ from autograder.judge import (
     KernelError,
     clock_message,
     clock_publisher,
-    rclpy_raced,
     ros_node,
 )
 from autograder.judge_lab01 import CLOCK_RETRY_S
 from rosbook.labs import lab06
-from rosbook.labs.probes import Probe, ScriptRun, run_program
+from rosbook.labs.probes import Probe, ScriptRun, rclpy_raced, run_program
 from rosbook.launch.launcher import ESCALATED
 from rosbook.runtime.session import ros
 
