@@ -414,7 +414,7 @@ class Player:
     """Plays a bag's messages on its topics (``ros2 bag play``), from ``node``.
 
     Each message is published ``(stamp - first stamp) / rate`` seconds of wall time
-    after the start, with the QoS its publishers offered (see :func:`playback_qos`);
+    after the first one was, with the QoS its publishers offered (see :func:`playback_qos`);
     ``loop`` starts over at the end. ``spin(timeout)`` runs while waiting for the next
     message's time (default: ``node``'s callbacks).
     """
@@ -484,13 +484,16 @@ class Player:
         start: float | None = None
         first = 0
         for item in read_messages(self.path, list(self.publishers)):
-            if start is None:
-                start, first = time.monotonic(), item.stamp_ns
-            due = start + (item.stamp_ns - first) / 1e9 / self.rate
-            while (left := due - time.monotonic()) > 0:
-                wait(min(left, 0.1))
+            if start is not None:
+                due = start + (item.stamp_ns - first) / 1e9 / self.rate
+                while (left := due - time.monotonic()) > 0:
+                    wait(min(left, 0.1))
             self.publishers[item.topic].publish(item.data)
             self.published += 1
+            if start is None:
+                # the schedule starts once the first message is out: a first publish
+                # held up (a busy machine) does not shorten the recorded gaps after it
+                start, first = time.monotonic(), item.stamp_ns
         return start is not None
 
     def close(self) -> None:
