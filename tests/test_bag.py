@@ -247,19 +247,23 @@ def write_foreign_bag(path: Path, stamps_s: list[float]) -> Path:
     return path
 
 
+#: The gap between the foreign bag's recorded messages, in seconds.
+FOREIGN_GAP_S = 0.4
+
+
 @pytest.fixture(scope="module")
 def foreign_bag(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    """Six Strings on /chatter, 0.4 s apart (``write_foreign_bag``)."""
+    """Six Strings on /chatter, ``FOREIGN_GAP_S`` apart (``write_foreign_bag``)."""
     return write_foreign_bag(
-        tmp_path_factory.mktemp("foreign") / "bag", [0.4 * k for k in range(6)]
+        tmp_path_factory.mktemp("foreign") / "bag", [FOREIGN_GAP_S * k for k in range(6)]
     )
 
 
 def assert_played_at_the_recorded_gaps(sent: list[int], rate: float) -> None:
     """Each of the foreign bag's messages (DDS source timestamps ``sent``) was published
-    no earlier after the first than the recorded gaps (0.4 s) divided by ``rate``."""
+    no earlier after the first than the recorded gaps divided by ``rate``."""
     for k in range(1, len(sent)):
-        assert sent[k] - sent[0] >= k * 0.4e9 / rate - 1e6, (k, sent)
+        assert sent[k] - sent[0] >= k * FOREIGN_GAP_S * 1e9 / rate - 1e6, (k, sent)
 
 
 def test_play_publishes_a_foreign_bag_in_order_at_its_timing(foreign_bag, node) -> None:
