@@ -376,26 +376,18 @@ def launched(launch: Program) -> dict[str, int]:
         return [m[1] for line in list(launch.lines) if (m := STARTED.match(line))]
 
     def settled() -> bool:
-        """Every started process is a node on the graph, or one has exited."""
-        count = len(processes())
+        """Every node the launch started is on the graph, or a process has exited."""
         if not launch.alive() or exit_codes(launch.lines):
             return True
-        nodes = lab06.graph_nodes(probe)
-        if count == 0 or len(nodes) < count:
-            return False
-        return all(
-            f"/{robot}/chatter" in lab06.endpoints(probe, robot)[i]
-            for robot in RATES
-            for i in (0, 1)
-            if f"/{robot}/talker" in nodes and f"/{robot}/listener" in nodes
+        started = processes()  # empty until ros2 launch says it started them
+        return (
+            bool(started) and lab06.settled_nodes(probe, lab06.started_nodes(started)) is not None
         )
 
     try:
         if not ros.spin_until(settled, watcher, timeout=START_GUARD_S):
             raise JudgeTimeout(
-                f"the launched nodes did not all appear on the ROS graph within "
-                f"{START_GUARD_S:.0f} s (started: {processes()}; live on the graph: "
-                f"{lab06.graph_nodes(probe)}; reported: {lab06.reported_nodes(probe)})"
+                lab06.not_on_graph(START_GUARD_S, lab06.started_nodes(processes()), probe)
             )
         nodes = lab06.graph_nodes(probe)
         codes = exit_codes(launch.lines)

@@ -18,7 +18,6 @@ import atexit
 import os
 import re
 import shutil
-import time
 from collections import Counter
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
@@ -27,6 +26,7 @@ from importlib.resources import files
 from pathlib import Path
 
 from rclpy.node import Node as RclpyNode
+from rclpy.topic_endpoint_info import TopicEndpointInfo
 from std_msgs.msg import String
 
 from rosbook.labs.deferral import deferrable
@@ -427,7 +427,7 @@ def check_two_robots(
     probes = {robot: Probe(f"/{robot}/chatter", String, name="rate") for robot in ROBOTS}
     try:
         expected = expected_nodes(ROBOTS)
-        nodes = _wait_for_nodes(system, probes["robot1"], expected)
+        nodes = _wait_for_nodes(system, probes["robot1"])
         died = [p for p in system.processes if not p.alive()]
         if died:
             system.pump(0.0)
@@ -499,23 +499,75 @@ def graph_nodes(watcher: Probe | RclpyNode) -> list[str]:
     often as it is reported; a name without a ``/rosout`` publisher counts as reported
     if it has any endpoint (a node without ``/rosout`` still publishes parameter events).
     While a ``/rosout`` publisher is not tied to a reported node yet (its node's report
-    is behind its endpoints), the reports are all there is to go by.
+    is behind its endpoints), the reports are all there is to go by: ``settled_nodes``
+    waits that out.
     """
     node = _graph_node(watcher)
-    everyone = Counter((ns, name) for name, ns in node.get_node_names_and_namespaces())
-    counts = _not_own(everyone)
+    reported, logging = _reports(node)
+    return _full_names(live_counts(reported, logging, lambda key: _has_endpoints(node, key)))
+
+
+Key = tuple[str, str]  # (namespace, name) of a node
+
+
+def _reports(node: RclpyNode) -> tuple[Counter[Key], Counter[Key]]:
+    """Each node the graph's reports list, and each publisher of ``/rosout`` by its node
+    (``_NODE_NAME_UNKNOWN_`` while that node's report is behind its endpoints)."""
+    reported = Counter((ns, name) for name, ns in node.get_node_names_and_namespaces())
     logging = Counter(
         (info.node_namespace, info.node_name)
         for info in node.get_publishers_info_by_topic("/rosout")
     )
-    if logging.keys() <= everyone.keys():  # each /rosout publisher is tied to a reported node
-        counts = Counter(
-            {
-                key: min(times, logging[key]) if logging[key] else times * _has_endpoints(node, key)
-                for key, times in counts.items()
-            }
-        )
-    return _full_names(counts)
+    return reported, logging
+
+
+def live_counts(
+    reported: Counter[Key], logging: Counter[Key], has_endpoints: Callable[[Key], bool]
+) -> Counter[Key]:
+    """How many live nodes of each name, not the checks' own (``graph_nodes``)."""
+    counts = _not_own(reported)
+    if not logging.keys() <= reported.keys():  # a /rosout publisher is not tied to a report
+        return counts
+    return Counter(
+        {
+            key: min(times, logging[key]) if logging[key] else times * has_endpoints(key)
+            for key, times in counts.items()
+        }
+    )
+
+
+def sure_nodes(reported: Counter[Key], logging: Counter[Key]) -> int | None:
+    """How many nodes, not the checks' own, are surely live: reported and publishing
+    ``/rosout``, as often as both; None while a ``/rosout`` publisher is not tied to a
+    report (then a report left of a node that has gone cannot be told from a live
+    node's: seen in a quiet run, a launch's graph listed a talker of the previous
+    launch while a listener's report was late, and the count of nodes looked right)."""
+    if not logging.keys() <= reported.keys():
+        return None
+    return sum(min(times, logging[key]) for key, times in _not_own(reported).items())
+
+
+#: Topics every node has, not the node's own work.
+COMMON_TOPICS = ("/rosout", "/parameter_events", "/clock")
+
+
+def settled_nodes(watcher: Probe | RclpyNode, started: int) -> list[str] | None:
+    """The live nodes (``graph_nodes``) once the graph shows all of a launch that
+    started ``started`` nodes: that many are surely live (``sure_nodes``), and each
+    talker and listener of a robot has its own topic (a publisher or a subscription
+    besides the ``COMMON_TOPICS``); None until then."""
+    node = _graph_node(watcher)
+    reported, logging = _reports(node)
+    sure = sure_nodes(reported, logging)
+    if sure is None or sure < started:
+        return None
+    nodes = _full_names(live_counts(reported, logging, lambda key: _has_endpoints(node, key)))
+    for robot in ROBOTS:
+        published, subscribed = endpoints(watcher, robot)
+        for name, found in (("talker", published), ("listener", subscribed)):
+            if f"/{robot}/{name}" in nodes and not set(found) - set(COMMON_TOPICS):
+                return None
+    return nodes
 
 
 def reported_nodes(watcher: Probe | RclpyNode) -> list[str]:
@@ -547,38 +599,68 @@ def _has_endpoints(node: RclpyNode, key: tuple[str, str]) -> bool:
         return False
 
 
-def endpoints(probe: Probe, robot: str) -> tuple[dict[str, list[str]], dict[str, list[str]]]:
-    """Topics of /robot/talker's publishers and /robot/listener's subscriptions."""
-    try:
-        published = dict(probe.node.get_publisher_names_and_types_by_node("talker", f"/{robot}"))
-        subscribed = dict(
-            probe.node.get_subscriber_names_and_types_by_node("listener", f"/{robot}")
-        )
-    except Exception:  # the node is not (yet) in the graph
-        return {}, {}
+def endpoints(
+    watcher: Probe | RclpyNode, robot: str
+) -> tuple[dict[str, list[str]], dict[str, list[str]]]:
+    """Topics of /robot/talker's publishers and /robot/listener's subscriptions.
+
+    Found topic by topic, by the node each endpoint belongs to: the graph's lookup by
+    node name asks the first participant that reports the name, which can be one that
+    has left (``graph_nodes``) and has no endpoints any more."""
+    node = _graph_node(watcher)
+    talker, listener = (f"/{robot}", "talker"), (f"/{robot}", "listener")
+    published: dict[str, list[str]] = {}
+    subscribed: dict[str, list[str]] = {}
+    for topic, types in node.get_topic_names_and_types():
+        if talker in _endpoint_nodes(node.get_publishers_info_by_topic(topic)):
+            published[topic] = types
+        if listener in _endpoint_nodes(node.get_subscriptions_info_by_topic(topic)):
+            subscribed[topic] = types
     return published, subscribed
 
 
-def _wait_for_nodes(system: Launch, probe: Probe, expected: list[str]) -> list[str]:
-    """Wait until the expected nodes and their chatter endpoints are discovered."""
+def _endpoint_nodes(infos: Iterable[TopicEndpointInfo]) -> set[Key]:
+    return {(info.node_namespace, info.node_name) for info in infos}
 
-    def complete() -> bool:
-        nodes = graph_nodes(probe)
-        if not all(n in nodes for n in expected):
-            return False
-        for robot in ROBOTS:
-            published, subscribed = endpoints(probe, robot)
-            if f"/{robot}/chatter" not in published or f"/{robot}/chatter" not in subscribed:
-                return False
-        return True
 
-    deadline = time.monotonic() + 12.0
-    while time.monotonic() < deadline:
-        if complete() or not system.running():
-            break
-        ros.spin_for(0.1)
-    ros.spin_for(0.3)  # duplicates and extras show up too
-    return graph_nodes(probe)
+#: How long the check waits for a launch's nodes to show on the graph: a guard against
+#: a hang only (they show in seconds), and when it is hit the feedback says so.
+GRAPH_GUARD_S = 120.0
+
+
+def _wait_for_nodes(system: Launch, probe: Probe, guard: float = GRAPH_GUARD_S) -> list[str]:
+    """Wait until the graph shows every node the launch started (``settled_nodes``) or
+    a process has exited; the live nodes."""
+    started = started_nodes(p.name for p in system.processes)
+    nodes: list[str] | None = None
+
+    def settled() -> bool:
+        nonlocal nodes
+        nodes = settled_nodes(probe, started)
+        return nodes is not None or len(system.running()) < len(system.processes)
+
+    if not ros.spin_until(settled, probe.node, timeout=guard):
+        raise TimeoutError(not_on_graph(guard, started, probe))
+    return graph_nodes(probe) if nodes is None else nodes
+
+
+def started_nodes(processes: Iterable[str]) -> int:
+    """How many of a launch's processes (``talker-1``: as ``ros2 launch`` names them) run
+    one of the package's executables, each a node (another process, such as a
+    ``sleep``, makes none)."""
+    return sum(re.sub(r"-\d+$", "", name) in EXECUTABLES for name in processes)
+
+
+def not_on_graph(guard: float, started: int, watcher: Probe | RclpyNode) -> str:
+    """What the feedback says when a launch's nodes did not all show within ``guard``."""
+    node = _graph_node(watcher)
+    reported, logging = _reports(node)
+    return (
+        f"timeout: {guard:.0f} s after the launch, {sure_nodes(reported, logging) or 0} of "
+        f"its {started} nodes were on the ROS graph (live: {graph_nodes(watcher)}; "
+        f"reported: {reported_nodes(watcher)}). The check waits for each launched node "
+        "to show with its topics; one that never shows is stuck before it makes its node."
+    )
 
 
 def assert_graph(
