@@ -19,7 +19,7 @@ import os
 import re
 import shutil
 from collections import Counter
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field
 from functools import cache
 from importlib.resources import files
@@ -455,7 +455,11 @@ def check_two_robots(
         for probe in probes.values():
             probe.close()
     report = TwoRobotsReport(nodes, counts, seconds, codes, system.output)
-    assert_stopped_cleanly(codes, any(p.alive() for p in system.processes))
+    assert_stopped_cleanly(
+        codes,
+        any(p.alive() for p in system.processes),
+        {p.name: p.lines for p in system.processes},
+    )
     return report
 
 
@@ -471,12 +475,22 @@ def not_a_description(type_name: str) -> CheckFailed:
     )
 
 
-def assert_stopped_cleanly(codes: dict[str, int], left_running: bool = False) -> None:
-    """One Ctrl-C stopped every process with exit code 0."""
+def assert_stopped_cleanly(
+    codes: dict[str, int],
+    left_running: bool = False,
+    printed: Mapping[str, list[str]] | None = None,
+) -> None:
+    """One Ctrl-C stopped every process with exit code 0; ``printed``: each process's
+    lines, the last of the first unclean one are shown."""
     unclean = {name: code for name, code in codes.items() if code != 0}
     if unclean or left_running:
+        said = ""
+        for name in unclean:
+            if lines := (printed or {}).get(name):
+                said = f" {name} printed last:\n" + _tail("\n".join(lines), 8)
+                break
         raise CheckFailed(
-            f"not every node stopped cleanly on Ctrl-C: exit codes {unclean} (0 is clean)"
+            f"not every node stopped cleanly on Ctrl-C: exit codes {unclean} (0 is clean).{said}"
         )
 
 
