@@ -378,21 +378,15 @@ def launched(launch: Program) -> dict[str, int]:
     def processes() -> list[str]:
         return [m[1] for line in list(launch.lines) if (m := STARTED.match(line))]
 
-    def settled() -> bool:
-        """Every node the launch started is on the graph, or a process has exited."""
-        if not launch.alive() or exit_codes(launch.lines):
-            return True
-        started = processes()  # empty until ros2 launch says it started them
-        return (
-            bool(started) and lab06.settled_nodes(probe, lab06.started_nodes(started)) is not None
-        )
+    def started() -> int | None:
+        names = processes()  # none until ros2 launch says it started them
+        return lab06.started_nodes(names) if names else None
+
+    def ended() -> bool:
+        return not launch.alive() or bool(exit_codes(launch.lines))
 
     try:
-        if not ros.spin_until(settled, watcher, timeout=START_GUARD_S):
-            raise JudgeTimeout(
-                lab06.not_on_graph(START_GUARD_S, lab06.started_nodes(processes()), probe)
-            )
-        nodes = lab06.graph_nodes(probe)
+        nodes = lab06.wait_for_launch(probe, started, ended, watcher, START_GUARD_S)
         codes = exit_codes(launch.lines)
         died = [(name, code, _lines_of(launch.lines, name)) for name, code in codes.items()]
         if not launch.alive():

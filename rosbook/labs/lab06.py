@@ -642,20 +642,38 @@ def _endpoint_nodes(infos: Iterable[TopicEndpointInfo]) -> set[Key]:
 GRAPH_GUARD_S = 120.0
 
 
-def _wait_for_nodes(system: Launch, probe: Probe, guard: float = GRAPH_GUARD_S) -> list[str]:
-    """Wait until the graph shows every node the launch started (``settled_nodes``) or
-    a process has exited; the live nodes."""
-    started = started_nodes(p.name for p in system.processes)
+def wait_for_launch(
+    probe: Probe,
+    started: Callable[[], int | None],
+    ended: Callable[[], bool],
+    spinning: RclpyNode,
+    guard: float = GRAPH_GUARD_S,
+) -> list[str]:
+    """Spin ``spinning`` until the graph shows every node the launch started
+    (``settled_nodes``; ``started()``: how many, None before the launch said) or
+    ``ended()`` (a process has exited); the live nodes. ``TimeoutError`` after ``guard``."""
     nodes: list[str] | None = None
 
     def settled() -> bool:
         nonlocal nodes
-        nodes = settled_nodes(probe, started)
-        return nodes is not None or len(system.running()) < len(system.processes)
+        count = started()
+        nodes = None if count is None else settled_nodes(probe, count)
+        return nodes is not None or ended()
 
-    if not ros.spin_until(settled, probe.node, timeout=guard):
-        raise TimeoutError(not_on_graph(guard, started, probe))
+    if not ros.spin_until(settled, spinning, timeout=guard):
+        raise TimeoutError(not_on_graph(guard, started() or 0, probe))
     return graph_nodes(probe) if nodes is None else nodes
+
+
+def _wait_for_nodes(system: Launch, probe: Probe, guard: float = GRAPH_GUARD_S) -> list[str]:
+    """``wait_for_launch`` for a launch started here."""
+    return wait_for_launch(
+        probe,
+        lambda: started_nodes(p.name for p in system.processes),
+        lambda: len(system.running()) < len(system.processes),
+        probe.node,
+        guard,
+    )
 
 
 def started_nodes(processes: Iterable[str]) -> int:
