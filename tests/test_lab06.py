@@ -241,7 +241,6 @@ def test_lab6_counts_live_nodes_not_reports_left_of_gone_ones(session) -> None:
 
     from rosbook.labs.lab06 import graph_nodes, settled_nodes
     from rosbook.labs.probes import run_program
-    from rosbook.runtime.session import ros
 
     watcher = session.add(Node("judge_watcher"))
     live = session.add(Node("listener", namespace="robot1"))  # it logs to /rosout
@@ -267,17 +266,17 @@ def test_lab6_counts_live_nodes_not_reports_left_of_gone_ones(session) -> None:
             )
 
         everything = ["/robot1/listener", "/robot1/listener", "/talker"]
-        assert ros.spin_until(
+        assert session.spin_until(
             lambda: reported() == everything and logging(), watcher, timeout=60.0
         ), f"the graph did not list them all: {reported()}"
         assert graph_nodes(watcher) == ["/robot1/listener"]
         # a launch of 1 node has settled once its subscription shows; not one of 2
-        assert ros.spin_until(
+        assert session.spin_until(
             lambda: settled_nodes(watcher, 1) == ["/robot1/listener"], watcher, timeout=60.0
         )
         assert settled_nodes(watcher, 2) is None
-        ros.remove(live)
-        assert ros.spin_until(lambda: not logging(), watcher, timeout=60.0)
+        session.remove(live)
+        assert session.spin_until(lambda: not logging(), watcher, timeout=60.0)
         assert graph_nodes(watcher) == []
 
 
