@@ -542,23 +542,40 @@ class HzMonitor:
     """Stamps each message of a topic with the observer's clock on arrival.
 
     Timestamps come from the node's clock, so an observer with ``use_sim_time``
-    measures simulated time, like ``ros2 topic hz`` does. It only records: whoever
-    spins the observer (``hz``, the session, a ``SimClock``) drives it.
+    measures simulated time, like ``ros2 topic hz`` does (``wall_time``: the wall
+    clock, its ``--wall-time``); ``keep``: only messages it accepts count (its
+    ``--filter``). It only records: whoever spins the observer (``hz``, the session,
+    a ``SimClock``) drives it.
     """
 
     def __init__(
-        self, topic: str, node: Node | None = None, *, window: int = 10_000, wait: float = 0.0
+        self,
+        topic: str,
+        node: Node | None = None,
+        *,
+        window: int = 10_000,
+        wait: float = 0.0,
+        wall_time: bool = False,
+        keep: Callable[[Any], bool] | None = None,
     ) -> None:
         self.node = observer(node)
         info, msg_type = _published(topic, self.node, wait)
         self.topic = info.name
         self.times: deque[int] = deque(maxlen=window + 1)
+        self._wall_time, self._keep = wall_time, keep
         self._subscription = self.node.create_subscription(
-            msg_type, info.name, self._stamp, qos_for_publishers(info.publishers), raw=True
+            msg_type,
+            info.name,
+            self._stamp,
+            qos_for_publishers(info.publishers),
+            raw=keep is None,  # a filter reads the message; counting needs only its arrival
         )
 
-    def _stamp(self, _msg: bytes) -> None:
-        self.times.append(self.node.get_clock().now().nanoseconds)
+    def _stamp(self, msg: Any) -> None:
+        if self._keep is not None and not self._keep(msg):
+            return
+        now = time.time_ns() if self._wall_time else self.node.get_clock().now().nanoseconds
+        self.times.append(now)
 
     @property
     def count(self) -> int:
