@@ -66,6 +66,7 @@ class ComplexNode(Node):
             Strings, "strings", lambda msg: None, qos_profile_system_default
         )
         self.server = self.create_service(BasicTypes, "basic", lambda req, res: res)
+        self.timer = self.create_timer(1.0, lambda: self.publisher.publish(Arrays()))
         if action:
             self.action_server = ActionServer(self, Fibonacci, "fibonacci", self.execute)
 
