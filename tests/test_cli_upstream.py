@@ -11,6 +11,7 @@ ported.
 
 from __future__ import annotations
 
+import ast
 import contextlib
 import io
 import math
@@ -43,6 +44,7 @@ FIXTURE_NODES = {
     "/_hidden_talker",
     "/listener",
     "/defaults_repeater",
+    "/cmd_vel_talker",
     "/complex_node",
     "/_hidden_complex_node",
     "/my_ns/echo_server",
@@ -1023,27 +1025,126 @@ def test_pkg_xml_prints_the_manifest() -> None:
     assert ros2("pkg", "xml", "not_a_package") == (1, "", "Package not found\n")
 
 
-def test_service_call_rate_repeats_until_interrupted() -> None:
-    # ros2service/ros2service/verb/call.py (-r: a call each period until Ctrl-C)
+def run_until(argv: list[str], want: re.Pattern[str], count: int) -> list[str]:
+    """``ros2 ARGV`` as a process of its own, until ``count`` lines match ``want``; then
+    Ctrl-C, which must end it with exit code 0. Its lines up to then."""
     process = subprocess.Popen(
-        [sys.executable, "-m", "rosbook.cli", "service", "call", "-r", "20", "/my_ns/echo",
-         "test_msgs/srv/BasicTypes", "{int32_value: 5}"],
-        stdout=subprocess.PIPE, text=True, start_new_session=True,
-    )  # fmt: skip
+        [sys.executable, "-m", "rosbook.cli", *argv],
+        stdout=subprocess.PIPE,
+        text=True,
+        start_new_session=True,
+    )
     guard = threading.Timer(HANG_S, process.kill)  # a hang ends the output, and the test
     guard.start()
+    seen: list[str] = []
     try:
-        responses = 0
         assert process.stdout is not None
-        for line in process.stdout:  # ends when the process does: a hang guard below
-            responses += line == "response:\n"
-            if responses == 3:
+        for line in process.stdout:  # ends when the process does
+            seen.append(line.rstrip("\n"))
+            if sum(bool(want.fullmatch(line_)) for line_ in seen) == count:
                 break
         process.send_signal(signal.SIGINT)
-        assert process.wait(timeout=HANG_S) == 0
+        assert process.wait(timeout=HANG_S) == 0, seen
     finally:
         guard.cancel()
         if process.poll() is None:
             os.killpg(process.pid, signal.SIGKILL)
             process.wait()
-    assert responses == 3
+    assert sum(bool(want.fullmatch(line)) for line in seen) == count, seen
+    return seen
+
+
+def test_service_call_rate_repeats_until_interrupted() -> None:
+    # ros2service/ros2service/verb/call.py (-r: a call each period until Ctrl-C)
+    argv = ["service", "call", "-r", "20", "/my_ns/echo", "test_msgs/srv/BasicTypes"]
+    out = run_until([*argv, "{int32_value: 5}"], re.compile("response:"), 3)
+    assert out.count(echo_call_output(int32_value=5)[1]) == 3, out
+
+
+def test_topic_delay() -> None:
+    # ros2topic/test/test_cli.py::test_topic_delay (stamped as sent: a delay near 0)
+    stats = re.compile(r"\tmin: \d+\.\d{3}s max: \d+\.\d{3}s std dev: \d+\.\d{5}s window: \d+")
+    out = run_until(["topic", "delay", "/cmd_vel"], stats, 1)
+    average = out[-2]  # the line before the statistics
+    assert re.fullmatch(r"average delay: \d+\.\d{3}", average), out
+    assert float(average.split(": ")[1]) < 1.0, out  # a delay, not the stamp itself
+
+
+def test_topic_echo_raw() -> None:
+    # ros2topic/ros2topic/verb/echo.py (--raw: the serialized bytes)
+    out = lines(ros2("topic", "echo", "--once", "--raw", "/chatter"))
+    assert (
+        len(out) == 2 and out[0].startswith("b'") and b"Hello World" in ast.literal_eval(out[0])
+    ), out
+
+
+def test_topic_echo_flow_style() -> None:
+    # ros2topic/ros2topic/verb/echo.py (--flow-style)
+    out = lines(ros2("topic", "echo", "--once", "--flow-style", "/defaults"))
+    assert out[0].startswith("{bool_value: true, byte_value: '2', char_value: 100"), out
+
+
+def test_topic_pub_stdin(monkeypatch: pytest.MonkeyPatch) -> None:
+    # ros2topic/ros2topic/verb/pub.py (--stdin: the values from standard input)
+    monkeypatch.setattr("sys.stdin", io.StringIO("{data: from stdin}\n"))
+    run = run_ros2("topic", "pub", "--once", "--stdin", "/chit_chatter", "std_msgs/msg/String")
+    assert "publishing #1: std_msgs.msg.String(data='from stdin')" in lines(run), run
+
+
+def test_service_call_stdin(monkeypatch: pytest.MonkeyPatch) -> None:
+    # ros2service/ros2service/verb/call.py (--stdin)
+    monkeypatch.setattr("sys.stdin", io.StringIO("{int32_value: 7}\n"))
+    run = run_ros2("service", "call", "--stdin", "/my_ns/echo", "test_msgs/srv/BasicTypes")
+    assert lines(run) == echo_call_output(int32_value=7)
+
+
+def test_action_send_goal_stdin(monkeypatch: pytest.MonkeyPatch) -> None:
+    # ros2action/ros2action/verb/send_goal.py (--stdin)
+    monkeypatch.setattr("sys.stdin", io.StringIO("{order: 2}\n"))
+    run = run_ros2("action", "send_goal", "--stdin", "/fibonacci", "test_msgs/action/Fibonacci")
+    assert lines(run)[-1] == "Goal finished with status: SUCCEEDED", run
+
+
+def test_param_list_param_prefixes() -> None:
+    # ros2param/ros2param/verb/list.py (--param-prefixes: the node's list_parameters prefixes)
+    run = ros2("param", "list", "/foo/parameter_node", "--param-prefixes", "foo")
+    assert lines(run) == ["  foo.bar.str_param", "  foo.str_param"]
+
+
+def test_param_list_include_hidden_nodes() -> None:
+    # ros2param/ros2param/verb/list.py (--include-hidden-nodes)
+    assert "/_hidden_talker:" in lines(ros2("param", "list", "--include-hidden-nodes"))
+    assert "/_hidden_talker:" not in lines(ros2("param", "list"))
+
+
+def test_param_get_of_a_hidden_node_needs_include_hidden_nodes() -> None:
+    # ros2param/ros2param/verb/get.py (wait_for_node with include_hidden_nodes)
+    argv = ("param", "get", "/_hidden_talker", "use_sim_time")
+    assert ros2(*argv) == (1, "", "Node not found\n")
+    assert lines(ros2(*argv, "--include-hidden-nodes")) == ["Boolean value is: False"]
+
+
+def test_param_delete_of_a_statically_typed_parameter_is_refused() -> None:
+    # ros2param/ros2param/verb/delete.py (a refusal on stderr, exit 0)
+    run = ros2("param", "delete", "/foo/parameter_node", "double_param")
+    assert run.code == 0 and run.out == "", run
+    assert run.err.startswith("Deleting parameter failed"), run
+    assert lines(ros2("param", "get", "/foo/parameter_node", "double_param")) == [
+        "Double value is: 1.23"
+    ]
+
+
+def test_discovery_options_are_honoured() -> None:
+    # ros2cli/node/direct.py (--spin-time, -s/--use-sim-time)
+    assert lines(ros2("topic", "list", "--spin-time", "0.5")) == lines(ros2("topic", "list"))
+    out = lines(ros2("topic", "echo", "-s", "--once", "/chatter"))
+    assert out[-1] == "---" and out[0].startswith("data: 'Hello World: "), out
+
+
+@pytest.mark.slow
+def test_topic_hz_filter_counts_only_matching_messages() -> None:
+    # ros2topic/test/test_cli.py::test_filtered_topic_hz (every tenth message of 20 Hz)
+    expression = "int(m.data.split(': ')[1]) % 10 == 0"
+    argv = ("topic", "hz", "--duration", "4", "--wall-time", "--filter", expression, "/chatter")
+    rates = [float(line.split(": ")[1]) for line in lines(ros2(*argv)) if "rate:" in line]
+    assert rates and rates[-1] < 5.0, rates  # about 2 Hz; the talker's own 20 Hz unfiltered
