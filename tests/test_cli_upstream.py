@@ -890,6 +890,18 @@ def test_topic_echo_filter_prints_only_matching_messages() -> None:
     assert len(out) == 2 and re.fullmatch(r"data: 'Hello World: \d*7'", out[0]), out
 
 
+@pytest.mark.parametrize(
+    "expression, error",
+    [
+        ("m.nope", "--filter 'm.nope': AttributeError: 'String' object has no attribute 'nope'"),
+        ("m.data ==", "--filter 'm.data ==': invalid syntax"),
+    ],
+)
+def test_topic_echo_filter_that_fails_is_one_line(expression: str, error: str) -> None:
+    run = ros2("topic", "echo", "--once", "--filter", expression, "/chatter")
+    assert run.code == 1 and run.err == error + "\n", run
+
+
 def test_topic_echo_with_a_qos_override_and_a_timeout_ends_quietly() -> None:
     # ros2topic/ros2topic/verb/echo.py (--qos-*: the profile as given; --timeout: exit 0)
     run = ros2("topic", "echo", "--qos-reliability", "reliable", "--timeout", "1", "/chatter")

@@ -260,8 +260,20 @@ def _filter(expression: str | None) -> Callable[[Any], bool] | None:
     code on their own machine, as upstream evaluates it."""
     if not expression:
         return None
-    code = compile(expression, "<--filter>", "eval")
-    return lambda m: bool(eval(code, {}, {"m": m}))  # noqa: S307 - upstream's option
+    try:
+        code = compile(expression, "<--filter>", "eval")
+    except SyntaxError as error:
+        raise InterfaceError(f"--filter {expression!r}: {error.msg}") from None
+
+    def keep(m: Any) -> bool:
+        try:
+            return bool(eval(code, {}, {"m": m}))  # noqa: S307 - upstream's option
+        except Exception as error:  # the user's expression: one line, not a traceback
+            raise InterfaceError(
+                f"--filter {expression!r}: {type(error).__name__}: {error}"
+            ) from None
+
+    return keep
 
 
 def _field(message: Any, path: list[str], given: str) -> Any:
@@ -294,10 +306,10 @@ def echo(args: argparse.Namespace) -> int:
             return
         try:
             shown = msg if path is None or args.raw else _field(msg, path, args.field)
+            if keep is not None and not keep(shown):
+                return
         except InterfaceError as error:
             errors.append(error)
-            return
-        if keep is not None and not keep(shown):
             return
         printed += 1
         if not hasattr(shown, "SLOT_TYPES"):  # raw bytes or a primitive field: as is
