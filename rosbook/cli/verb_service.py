@@ -45,7 +45,12 @@ def add_parser(verbs: argparse._SubParsersAction) -> None:
     listing.set_defaults(func=list_services)
     kind = commands.add_parser("type", help="the type of a service")
     kind.add_argument("service_name")
-    kind.add_argument("--include-hidden-services", **hidden_option)
+    kind.add_argument(
+        "--include-hidden-services",
+        action="store_true",
+        help=f"also names with a '_' part {ADDITION} (upstream: ros2 service --include-hidden-"
+        "services type)",
+    )
     kind.set_defaults(func=service_type)
     caller = commands.add_parser("call", help="call a service once and print the response")
     caller.add_argument("service_name")

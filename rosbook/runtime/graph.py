@@ -13,7 +13,7 @@ session, so the talker in the next cell keeps publishing while ``echo`` listens.
     graph.node_names()                       # ros2 node list
     graph.topic_names_and_types()            # ros2 topic list -t
     print(graph.topic_info('/chatter').format(verbose=True))   # ros2 topic info -v
-    graph.echo('/chatter', count=3)          # ros2 topic echo -n 3 (as messages)
+    graph.echo('/chatter', count=3)          # ros2 topic echo, three messages (as messages)
     graph.hz('/chatter', duration=2.0)       # ros2 topic hz
     print(graph.node_info('/talker').format())                 # ros2 node info
     print(interface_show('geometry_msgs/msg/Pose'))            # ros2 interface show
@@ -492,7 +492,7 @@ def echo(
     on_message: Callable[[Any], None] | None = None,
     wait: float = 0.0,
 ) -> list[Any]:
-    """Receive ``count`` messages on ``topic`` (``ros2 topic echo -n COUNT``; inf: no limit).
+    """Receive ``count`` messages on ``topic`` (``ros2 topic echo`` until ``count``; inf: no limit).
 
     Returns the messages received within ``timeout`` seconds (fewer if the publisher
     was slower); ``on_message`` is called with each as it arrives. ``wait``: seconds
