@@ -95,6 +95,21 @@ def message_format(args: argparse.Namespace) -> dict[str, object]:
     }
 
 
+def add_values_argument(
+    parser: argparse.ArgumentParser, dest: str, default: str, help: str
+) -> None:
+    """A positional of YAML values (a message, a request, a goal), or upstream's
+    ``--stdin`` to read them from standard input instead; ``values(args, dest)`` reads it."""
+    group = parser.add_mutually_exclusive_group()
+    group.add_argument(dest, nargs="?", default=default, help=help)
+    group.add_argument("--stdin", action="store_true", help="Read values from standard input")
+
+
+def values(args: argparse.Namespace, dest: str) -> str:
+    """The YAML of ``add_values_argument``'s positional ``dest``, or of stdin with ``--stdin``."""
+    return sys.stdin.read() if args.stdin else str(getattr(args, dest))
+
+
 def add_direct_arguments(parser: argparse.ArgumentParser) -> None:
     """The options of a command whose node always runs in its own process (upstream's
     ``ros2cli.node.direct.add_arguments``): ``--spin-time`` and ``-s/--use-sim-time``."""

@@ -15,7 +15,7 @@ from rclpy.action.graph import (
 )
 from rclpy.node import Node
 
-from rosbook.cli import ADDITION, cli_node
+from rosbook.cli import ADDITION, add_values_argument, cli_node, values
 from rosbook.cli.reporting import fail
 from rosbook.runtime import graph
 from rosbook.runtime.actions import run_goal
@@ -45,9 +45,7 @@ def add_parser(verbs: argparse._SubParsersAction) -> None:
     goal = commands.add_parser("send_goal", help="send a goal and wait for its result")
     goal.add_argument("action_name")
     goal.add_argument("action_type", help="e.g. test_msgs/action/Fibonacci")
-    values = goal.add_mutually_exclusive_group()
-    values.add_argument("goal", nargs="?", default="", help="goal as YAML: '{order: 5}'")
-    values.add_argument("--stdin", action="store_true", help="Read goal from standard input")
+    add_values_argument(goal, "goal", "", "goal as YAML: '{order: 5}'")
     goal.add_argument("-f", "--feedback", action="store_true", help="print the feedback")
     goal.add_argument(
         "--timeout", type=float, default=math.inf, help=f"give up after S seconds {ADDITION}"
@@ -110,7 +108,7 @@ def send_goal(args: argparse.Namespace) -> int:
     except InterfaceError:
         return fail("The passed action type is invalid")
     try:
-        goal = from_yaml(action_type.Goal, sys.stdin.read() if args.stdin else args.goal)
+        goal = from_yaml(action_type.Goal, values(args, "goal"))
     except InterfaceError as exc:
         return fail(f"Failed to populate message fields: {exc}")
 

@@ -7,7 +7,8 @@ import argparse
 import array
 import re
 import sys
-from typing import Any
+from collections.abc import Callable
+from typing import Any, TypeVar
 
 import yaml
 from rcl_interfaces.msg import ParameterType
@@ -20,9 +21,9 @@ from rclpy.parameter import (
 )
 
 from rosbook.cli import GRAPH_TIMEOUT_S, add_strategy_arguments, cli_node
-from rosbook.cli.reporting import fail
+from rosbook.cli.reporting import fail, reports_errors
 from rosbook.runtime import graph
-from rosbook.runtime.graph import absolute_name
+from rosbook.runtime.graph import GraphError, absolute_name
 from rosbook.runtime.params import (
     describe_parameters,
     list_parameters,
@@ -30,6 +31,8 @@ from rosbook.runtime.params import (
     set_parameter,
 )
 from rosbook.runtime.services import ServiceCallError, call
+
+T = TypeVar("T")
 
 #: What ``ros2 param get`` prints before a value, by its ``ParameterType`` (upstream's).
 LABELS = {
@@ -184,15 +187,25 @@ def list_params(args: argparse.Namespace) -> int:
     return 0
 
 
-def get_param(args: argparse.Namespace) -> int:
+def _answer(args: argparse.Namespace, request: Callable[[Node, str], T]) -> T:
+    """``request(node, target)`` on the node ``args`` names: ``GraphError`` with upstream's
+    "Node not found" when it is not there, with the call's error when that fails."""
     with cli_node(args=args) as node:
         target = _target(node, args)
         if target is None:
-            return fail("Node not found")
+            raise GraphError("Node not found")
         try:
-            value = parameter_value(node, target, args.parameter_name, GRAPH_TIMEOUT_S)
+            return request(node, target)
         except ServiceCallError as exc:
-            return fail(str(exc))
+            raise GraphError(str(exc)) from None
+
+
+@reports_errors
+def get_param(args: argparse.Namespace) -> int:
+    value = _answer(
+        args,
+        lambda node, target: parameter_value(node, target, args.parameter_name, GRAPH_TIMEOUT_S),
+    )
     if value is None:
         return fail("Parameter not set")
     if value.type == ParameterType.PARAMETER_NOT_SET:
@@ -208,16 +221,15 @@ def get_param(args: argparse.Namespace) -> int:
     return 0
 
 
+@reports_errors
 def set_param(args: argparse.Namespace) -> int:
     """As upstream: a refusal is reported on stderr, yet the exit code is 0."""
-    with cli_node(args=args) as node:
-        target = _target(node, args)
-        if target is None:
-            return fail("Node not found")
-        try:
-            result = set_parameter(node, target, args.parameter_name, args.value, GRAPH_TIMEOUT_S)
-        except ServiceCallError as exc:
-            return fail(str(exc))
+    result = _answer(
+        args,
+        lambda node, target: set_parameter(
+            node, target, args.parameter_name, args.value, GRAPH_TIMEOUT_S
+        ),
+    )
     if result.successful:
         print("Set parameter successful" + (f": {result.reason}" if result.reason else ""))
     else:
@@ -226,16 +238,15 @@ def set_param(args: argparse.Namespace) -> int:
     return 0
 
 
+@reports_errors
 def delete_param(args: argparse.Namespace) -> int:
     """Unset a parameter (its value set to "not set"); a refusal goes to stderr, exit 0."""
-    with cli_node(args=args) as node:
-        target = _target(node, args)
-        if target is None:
-            return fail("Node not found")
-        try:
-            result = set_parameter(node, target, args.parameter_name, None, GRAPH_TIMEOUT_S)
-        except ServiceCallError as exc:
-            return fail(str(exc))
+    result = _answer(
+        args,
+        lambda node, target: set_parameter(
+            node, target, args.parameter_name, None, GRAPH_TIMEOUT_S
+        ),
+    )
     reason = f": {result.reason}" if result.reason else ""
     if result.successful:
         print(f"Deleted parameter successfully{reason}")
@@ -244,16 +255,15 @@ def delete_param(args: argparse.Namespace) -> int:
     return 0
 
 
+@reports_errors
 def describe_params(args: argparse.Namespace) -> int:
     """Each parameter's name, type, description and constraints, as upstream prints them."""
-    with cli_node(args=args) as node:
-        target = _target(node, args)
-        if target is None:
-            return fail("Node not found")
-        try:
-            found = describe_parameters(node, target, args.parameter_names, GRAPH_TIMEOUT_S)
-        except ServiceCallError as exc:
-            return fail(str(exc))
+    found = _answer(
+        args,
+        lambda node, target: describe_parameters(
+            node, target, args.parameter_names, GRAPH_TIMEOUT_S
+        ),
+    )
     for descriptor in found:
         print("Parameter name:", descriptor.name)
         print("  Type:", TYPE_NAMES[descriptor.type])

@@ -18,8 +18,10 @@ from rosbook.cli import (
     ADDITION,
     add_message_format_arguments,
     add_strategy_arguments,
+    add_values_argument,
     cli_node,
     message_format,
+    values,
 )
 from rosbook.cli.reporting import fail
 from rosbook.runtime import graph
@@ -55,9 +57,7 @@ def add_parser(verbs: argparse._SubParsersAction) -> None:
     caller = commands.add_parser("call", help="call a service once and print the response")
     caller.add_argument("service_name")
     caller.add_argument("service_type", help="e.g. std_srvs/srv/SetBool")
-    values = caller.add_mutually_exclusive_group()
-    values.add_argument("values", nargs="?", default="", help="request as YAML: '{data: true}'")
-    values.add_argument("--stdin", action="store_true", help="Read values from standard input")
+    add_values_argument(caller, "values", "", "request as YAML: '{data: true}'")
     caller.add_argument(
         "-r",
         "--rate",
@@ -130,7 +130,7 @@ def call_service(args: argparse.Namespace) -> int:
     if not hasattr(srv_type, "Request"):
         return fail("The passed type is not a service")
     try:
-        request = from_yaml(srv_type.Request, sys.stdin.read() if args.stdin else args.values)
+        request = from_yaml(srv_type.Request, values(args, "values"))
     except InterfaceError as exc:
         return fail(f"Failed to populate field: {exc}")
     with cli_node() as node:  # waits up to --timeout for a server, as asked

@@ -6,7 +6,6 @@ from __future__ import annotations
 
 import argparse
 import math
-import sys
 import time
 from collections import deque
 from collections.abc import Callable
@@ -35,11 +34,13 @@ from rosbook.cli import (
     add_direct_arguments,
     add_message_format_arguments,
     add_strategy_arguments,
+    add_values_argument,
     cli_node,
     message_format,
     positive_int,
     unsigned_int,
 )
+from rosbook.cli import values as given_values
 from rosbook.cli.reporting import fail, reports_errors
 from rosbook.runtime import graph
 from rosbook.runtime.interfaces import InterfaceError, fill, message_class, to_csv, to_yaml
@@ -421,11 +422,7 @@ def add_publishing_parsers(commands: argparse._SubParsersAction) -> None:  # typ
     p = commands.add_parser("pub", help="Publish a message to a topic")
     p.add_argument("topic_name", help="Name of the ROS topic to publish to (e.g. '/chatter')")
     p.add_argument("message_type", help="Type of the ROS message (e.g. 'std_msgs/msg/String')")
-    values = p.add_mutually_exclusive_group()
-    values.add_argument(
-        "values", nargs="?", default="{}", help="Values to fill the message with in YAML format"
-    )
-    values.add_argument("--stdin", action="store_true", help="Read values from standard input")
+    add_values_argument(p, "values", "{}", "Values to fill the message with in YAML format")
     p.add_argument(
         "-r",
         "--rate",
@@ -614,7 +611,7 @@ def pub(args: argparse.Namespace) -> int:
     except InterfaceError:
         return fail("The passed message type is invalid")
     try:
-        values = yaml.safe_load(sys.stdin.read() if args.stdin else args.values)
+        values = yaml.safe_load(given_values(args, "values"))
     except yaml.YAMLError as error:
         return fail(f"Failed to populate field: {error}")
     if not isinstance(values, dict):
