@@ -764,6 +764,19 @@ def test_pkg_create_with_an_unknown_license_warns(tmp_path: Path) -> None:
     assert again.code == 1 and again.err.startswith("\nAborted!\nThe directory already exists: ")
 
 
+def test_pkg_create_renames_a_node_named_as_the_library(tmp_path: Path) -> None:
+    # ros2pkg/ros2pkg/verb/create.py (--library-name equal to --node-name)
+    run = ros2(
+        "pkg", "create", "lib_pkg", "--build-type", "ament_python", "--node-name", "same",
+        "--library-name", "same", "--destination-directory", str(tmp_path),
+    )  # fmt: skip
+    assert run.code == 0 and run.err == (
+        "[WARNING] node name can not be equal to the library name\n"
+        "[WARNING] renaming node to same_node\n"
+    ), run
+    assert (tmp_path / "lib_pkg" / "lib_pkg" / "same_node.py").is_file()
+
+
 # -- ros2 interface: ros2interface/test/test_cli.py -----------------------------------
 
 
