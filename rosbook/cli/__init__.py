@@ -1,11 +1,12 @@
 """A ``ros2``-style command line for the parts of the ROS 2 CLI this book uses.
 
 There is no ``ros2`` CLI wheel, so the project provides the verbs the book and labs
-need on top of rclpy. Each verb lives in its own module ``rosbook/cli/verb_<name>.py``
-that defines ``add_parser(verbs)``: it registers ``ros2 <name> ...`` on the argparse
-sub-parsers ``verbs`` and sets ``func=handler`` with ``handler(args) -> int``. The
-command is installed as ``ros2`` in the project's venv and also runs as
-``python -m rosbook.cli``.
+need on top of rclpy, each with every option upstream's jazzy ``--help`` lists (and a
+few of its own, marked ``ADDITION`` in their help). Each verb lives in its own module
+``rosbook/cli/verb_<name>.py`` that defines ``add_parser(verbs)``: it registers
+``ros2 <name> ...`` on the argparse sub-parsers ``verbs`` and sets ``func=handler``
+with ``handler(args) -> int``. The command is installed as ``ros2`` in the project's
+venv and also runs as ``python -m rosbook.cli``.
 
 The read-only graph verbs (``rosbook.cli.daemon.ANSWERED``) ask a per-user graph daemon
 when one runs (``ros2 daemon start|stop|status``; the first such command starts one
