@@ -221,38 +221,33 @@ def get_param(args: argparse.Namespace) -> int:
     return 0
 
 
-@reports_errors
-def set_param(args: argparse.Namespace) -> int:
-    """As upstream: a refusal is reported on stderr, yet the exit code is 0."""
+def _set(args: argparse.Namespace, value: Any, done: str, failed: str) -> int:
+    """Set ``args.parameter_name`` to ``value`` (None: unset it) and print the node's
+    verdict as upstream: ``done`` on stdout, or ``failed`` on stderr yet exit code 0."""
     result = _answer(
         args,
         lambda node, target: set_parameter(
-            node, target, args.parameter_name, args.value, GRAPH_TIMEOUT_S
+            node, target, args.parameter_name, value, GRAPH_TIMEOUT_S
         ),
     )
+    reason = f": {result.reason}" if result.reason else ""
     if result.successful:
-        print("Set parameter successful" + (f": {result.reason}" if result.reason else ""))
+        print(done + reason)
     else:
-        reason = f": {result.reason}" if result.reason else ""
-        print(f"Setting parameter failed{reason}", file=sys.stderr)
+        print(failed + reason, file=sys.stderr)
     return 0
+
+
+@reports_errors
+def set_param(args: argparse.Namespace) -> int:
+    """As upstream: a refusal is reported on stderr, yet the exit code is 0."""
+    return _set(args, args.value, "Set parameter successful", "Setting parameter failed")
 
 
 @reports_errors
 def delete_param(args: argparse.Namespace) -> int:
     """Unset a parameter (its value set to "not set"); a refusal goes to stderr, exit 0."""
-    result = _answer(
-        args,
-        lambda node, target: set_parameter(
-            node, target, args.parameter_name, None, GRAPH_TIMEOUT_S
-        ),
-    )
-    reason = f": {result.reason}" if result.reason else ""
-    if result.successful:
-        print(f"Deleted parameter successfully{reason}")
-    else:
-        print(f"Deleting parameter failed{reason}", file=sys.stderr)
-    return 0
+    return _set(args, None, "Deleted parameter successfully", "Deleting parameter failed")
 
 
 @reports_errors
