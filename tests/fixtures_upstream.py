@@ -10,6 +10,7 @@ once and runs the ``ros2`` verbs against it.
 import time
 
 import rclpy
+from geometry_msgs.msg import TwistStamped
 from rclpy.action import ActionServer
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
@@ -55,6 +56,21 @@ class Repeater(Node):
         self.timer = self.create_timer(0.1, lambda: self.publisher.publish(msg_type()))
 
 
+class StampedTalker(Node):
+    """What ros2topic/test/test_cli.py's /cmd_vel publisher is to ``topic delay``:
+    ``geometry_msgs/msg/TwistStamped`` stamped with the time it is sent."""
+
+    def __init__(self):
+        super().__init__("cmd_vel_talker")
+        self.publisher = self.create_publisher(TwistStamped, "cmd_vel", 10)
+        self.timer = self.create_timer(0.1, self.tick)
+
+    def tick(self):
+        message = TwistStamped()
+        message.header.stamp = self.get_clock().now().to_msg()
+        self.publisher.publish(message)
+
+
 class ComplexNode(Node):
     """ros2node/test/fixtures/complex_node.py; its Fibonacci action computes the
     sequence with feedback as ros2action/test/fixtures/fibonacci_action_server.py."""
@@ -66,6 +82,7 @@ class ComplexNode(Node):
             Strings, "strings", lambda msg: None, qos_profile_system_default
         )
         self.server = self.create_service(BasicTypes, "basic", lambda req, res: res)
+        self.timer = self.create_timer(1.0, lambda: self.publisher.publish(Arrays()))
         if action:
             self.action_server = ActionServer(self, Fibonacci, "fibonacci", self.execute)
 
@@ -124,6 +141,7 @@ def main(args=None):
         Talker("_hidden_talker", "_hidden_chatter"),
         Listener(),
         Repeater("defaults_repeater", Defaults, "defaults"),
+        StampedTalker(),
         ComplexNode(),
         ComplexNode("_hidden_complex_node", action=False),
         EchoServer(),

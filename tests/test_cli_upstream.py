@@ -11,6 +11,7 @@ ported.
 
 from __future__ import annotations
 
+import ast
 import contextlib
 import io
 import math
@@ -19,12 +20,14 @@ import re
 import signal
 import subprocess
 import sys
+import threading
 import xml.etree.ElementTree as ET
 from collections.abc import Iterator
 from pathlib import Path
 from typing import NamedTuple
 
 import pytest
+import yaml
 
 from rosbook import ros
 from rosbook.cli import main
@@ -33,12 +36,15 @@ from rosbook.runtime import graph
 pytestmark = pytest.mark.filterwarnings("ignore::DeprecationWarning")
 
 FIXTURES = Path(__file__).with_name("fixtures_upstream.py")
+#: Guards against a hang only: the waits below end on an event.
+HANG_S = 90.0
 #: Every node of the fixture process (the two /twin nodes share one name).
 FIXTURE_NODES = {
     "/talker",
     "/_hidden_talker",
     "/listener",
     "/defaults_repeater",
+    "/cmd_vel_talker",
     "/complex_node",
     "/_hidden_complex_node",
     "/my_ns/echo_server",
@@ -758,6 +764,19 @@ def test_pkg_create_with_an_unknown_license_warns(tmp_path: Path) -> None:
     assert again.code == 1 and again.err.startswith("\nAborted!\nThe directory already exists: ")
 
 
+def test_pkg_create_renames_a_node_named_as_the_library(tmp_path: Path) -> None:
+    # ros2pkg/ros2pkg/verb/create.py (--library-name equal to --node-name)
+    run = ros2(
+        "pkg", "create", "lib_pkg", "--build-type", "ament_python", "--node-name", "same",
+        "--library-name", "same", "--destination-directory", str(tmp_path),
+    )  # fmt: skip
+    assert run.code == 0 and run.err == (
+        "[WARNING] node name can not be equal to the library name\n"
+        "[WARNING] renaming node to same_node\n"
+    ), run
+    assert (tmp_path / "lib_pkg" / "lib_pkg" / "same_node.py").is_file()
+
+
 # -- ros2 interface: ros2interface/test/test_cli.py -----------------------------------
 
 
@@ -793,3 +812,364 @@ def test_interface_show_not_an_interface() -> None:
     run = ros2("interface", "show", "test_msgs/msg/NotAMessageTypeName")
     assert run.code == 1 and run.out == ""
     assert re.fullmatch(r"Could not find the interface '.+NotAMessageTypeName\.idl'\n", run.err)
+
+
+# -- the rest of upstream's options (ros2cli jazzy: each verb's add_arguments and main) ---
+
+
+def test_topic_list_verbose_has_upstreams_two_blocks() -> None:
+    # ros2topic/test/test_cli.py::test_list_with_verbose
+    out = lines(ros2("topic", "list", "-v"))
+    subscribed = out.index("Subscribed topics:")
+    assert out[0] == "Published topics:" and out[subscribed - 1] == "" and out[-1] == "", out
+    assert " * /chatter [std_msgs/msg/String] 1 publisher" in out[:subscribed]
+    assert " * /defaults [test_msgs/msg/Defaults] 1 publisher" in out[:subscribed]
+    assert " * /chit_chatter [std_msgs/msg/String] 1 subscriber" in out[subscribed:]
+    assert re.compile(r" \* /rosout \[rcl_interfaces/msg/Log\] \d+ publishers").fullmatch(
+        next(line for line in out if line.startswith(" * /rosout"))
+    )
+
+
+def test_topic_type() -> None:
+    # ros2topic/test/test_cli.py::test_topic_type
+    assert lines(ros2("topic", "type", "/chatter")) == ["std_msgs/msg/String"]
+
+
+def test_topic_type_of_a_hidden_topic_needs_the_verbs_option() -> None:
+    # ros2topic/test/test_cli.py::test_hidden_topic_type; ros2topic/command/topic.py
+    assert ros2("topic", "type", "/_hidden_chatter") == (1, "", "")
+    run = ros2("topic", "--include-hidden-topics", "type", "/_hidden_chatter")
+    assert lines(run) == ["std_msgs/msg/String"]
+
+
+def test_topic_info_verbose_ends_with_a_blank_line() -> None:
+    # ros2topic/ros2topic/verb/info.py: every line of -v ends in '\n\n'
+    run = ros2("topic", "info", "-v", "/chatter")
+    assert run.out.endswith("Subscription count: 0\n\n"), run.out[-60:]
+    assert ros2("topic", "info", "/chatter").out.endswith("Subscription count: 0\n")
+
+
+def test_topic_echo_no_str() -> None:
+    # ros2topic/test/test_cli.py::test_no_str_topic_echo
+    out = lines(ros2("topic", "echo", "--once", "--no-str", "/chatter"))
+    assert len(out) == 2 and re.fullmatch(r"data: '<string length: <\d+>>'", out[0]), out
+    assert out[1] == "---"
+
+
+def test_topic_echo_csv() -> None:
+    # ros2topic/test/test_cli.py::test_csv_topic_echo
+    assert lines(ros2("topic", "echo", "--once", "--csv", "/defaults")) == [
+        "True,b'2',100,1.125,1.125,-50,200,-1000,2000,-30000,60000,-40000000,50000000"
+    ]
+
+
+def test_topic_echo_no_arr() -> None:
+    # ros2topic/test/test_cli.py::test_no_arr_topic_echo_on_array_message
+    out = lines(ros2("topic", "echo", "--once", "--no-arr", "/arrays"))
+    assert out[0] == "bool_values: '<array type: boolean[3]>'", out
+    assert "string_values: '<array type: string[3]>'" in out
+    assert "basic_types_values: '<array type: test_msgs/msg/BasicTypes[3]>'" in out
+    assert out[-2:] == ["alignment_check: 0", "---"]
+
+
+def test_topic_echo_truncate_length() -> None:
+    # ros2topic/test/test_cli.py::test_truncate_length_topic_echo
+    out = lines(ros2("topic", "echo", "--once", "--truncate-length", "5", "/chatter"))
+    assert out == ["data: Hello...", "---"]
+
+
+def test_topic_echo_field() -> None:
+    # ros2topic/test/test_cli.py::test_topic_echo_field
+    out = lines(ros2("topic", "echo", "--once", "/arrays", "--field", "alignment_check"))
+    assert out == ["0", "---"]
+
+
+@pytest.mark.parametrize(
+    "field, error",
+    [
+        ("not_member", "Invalid field 'not_member': 'Arrays' object has no attribute 'not_member'"),
+        (".", "Invalid field value '.'"),
+    ],
+)
+def test_topic_echo_field_invalid(field: str, error: str) -> None:
+    # ros2topic/test/test_cli.py::test_topic_echo_field_not_a_member, _field_invalid
+    run = ros2("topic", "echo", "--once", "/arrays", "--field", field)
+    assert run.code == 1 and run.err == error + "\n", run
+
+
+def test_topic_echo_filter_prints_only_matching_messages() -> None:
+    # ros2topic/ros2topic/verb/echo.py (--filter: a Python expression of m)
+    out = lines(ros2("topic", "echo", "--once", "--filter", "m.data.endswith('7')", "/chatter"))
+    assert len(out) == 2 and re.fullmatch(r"data: 'Hello World: \d*7'", out[0]), out
+
+
+@pytest.mark.parametrize(
+    "expression, error",
+    [
+        ("m.nope", "--filter 'm.nope': AttributeError: 'String' object has no attribute 'nope'"),
+        ("m.data ==", "--filter 'm.data ==': invalid syntax"),
+    ],
+)
+def test_topic_echo_filter_that_fails_is_one_line(expression: str, error: str) -> None:
+    run = ros2("topic", "echo", "--once", "--filter", expression, "/chatter")
+    assert run.code == 1 and run.err == error + "\n", run
+
+
+def test_topic_echo_with_a_qos_override_and_a_timeout_ends_quietly() -> None:
+    # ros2topic/ros2topic/verb/echo.py (--qos-*: the profile as given; --timeout: exit 0)
+    run = ros2("topic", "echo", "--qos-reliability", "reliable", "--timeout", "1", "/chatter")
+    assert run.code == 0 and "data: 'Hello World: " in run.out and not run.err, run
+
+
+def test_topic_echo_include_message_info() -> None:
+    # ros2topic/ros2topic/verb/echo.py (-i: yaml.dump of the message info, then ---)
+    out = lines(ros2("topic", "echo", "--once", "-i", "/chatter"))
+    info = yaml.safe_load("\n".join(out[: out.index("---")]))
+    assert {"source_timestamp", "received_timestamp"} <= set(info), out
+    assert out[-1] == "---" and out[-2].startswith("data: 'Hello World: "), out
+
+
+def test_action_list_count() -> None:
+    # ros2action/ros2action/verb/list.py (-c)
+    assert lines(ros2("action", "list", "-c")) == [str(len(lines(ros2("action", "list"))))]
+
+
+def test_action_info_count() -> None:
+    # ros2action/ros2action/verb/info.py (-c: the counts, no names)
+    assert lines(ros2("action", "info", "-c", "/fibonacci")) == [
+        "Action: /fibonacci",
+        "Action clients: 0",
+        "Action servers: 1",
+    ]
+
+
+def test_param_list_filter() -> None:
+    # ros2param/ros2param/verb/list.py (--filter: re.match on each name)
+    run = ros2("param", "list", "/foo/parameter_node", "--filter", "int")
+    assert lines(run) == ["  int_array_param", "  int_param"]
+
+
+def test_param_list_param_type() -> None:
+    # ros2param/ros2param/verb/list.py (--param-type)
+    run = ros2("param", "list", "/foo/parameter_node", "--param-type", "--filter", "str")
+    assert lines(run) == ["  str_array_param (type: string array)", "  str_param (type: string)"]
+
+
+def test_param_get_hide_type() -> None:
+    # ros2param/ros2param/verb/get.py (--hide-type: the value alone)
+    assert ros2("param", "get", "/foo/parameter_node", "bool_param", "--hide-type") == (
+        0,
+        "True\n",
+        "",
+    )
+
+
+def test_param_describe() -> None:
+    # ros2param/ros2param/verb/describe.py
+    assert lines(ros2("param", "describe", "/foo/parameter_node", "double_param")) == [
+        "Parameter name: double_param",
+        "  Type: double",
+        "  Constraints:",
+    ]
+
+
+def test_interface_show_no_comments() -> None:
+    # ros2interface/ros2interface/verb/show.py (--no-comments: no comment, no blank line)
+    assert lines(ros2("interface", "show", "--no-comments", "std_msgs/msg/Header")) == [
+        "builtin_interfaces/Time stamp",
+        "\tint32 sec",
+        "\tuint32 nanosec",
+        "string frame_id",
+    ]
+
+
+def test_interface_show_all_comments_keeps_the_nested_ones() -> None:
+    # ros2interface/ros2interface/verb/show.py (--all-comments)
+    default = lines(ros2("interface", "show", "std_msgs/msg/Header"))
+    every = lines(ros2("interface", "show", "--all-comments", "std_msgs/msg/Header"))
+    assert not [line for line in default if line.startswith("\t#")], default
+    assert [line for line in every if line.startswith("\t#")] and set(default) < set(every)
+
+
+def test_interface_show_reads_the_type_from_stdin(monkeypatch: pytest.MonkeyPatch) -> None:
+    # ros2interface/ros2interface/verb/show.py (ReadStdinPipe: '-')
+    monkeypatch.setattr("sys.stdin", io.StringIO("std_msgs/msg/Header\n"))
+    assert run_ros2("interface", "show", "-") == ros2("interface", "show", "std_msgs/msg/Header")
+
+
+def test_interface_list_only_msgs() -> None:
+    # ros2interface/ros2interface/verb/list.py (print_messages)
+    out = lines(ros2("interface", "list", "-m"))
+    assert out[0] == "Messages:" and "    std_msgs/msg/String" in out, out[:3]
+    assert "Services:" not in out and "    std_srvs/srv/SetBool" not in out
+
+
+def test_interface_list_has_a_block_per_kind() -> None:
+    # ros2interface/ros2interface/verb/list.py
+    out = lines(ros2("interface", "list"))
+    assert [line for line in out if not line.startswith("    ")] == [
+        "Messages:",
+        "Services:",
+        "Actions:",
+    ]
+    assert "    test_msgs/action/Fibonacci" in out[out.index("Actions:") :]
+
+
+def test_interface_packages_only_actions() -> None:
+    # ros2interface/ros2interface/verb/packages.py (-a)
+    out = lines(ros2("interface", "packages", "-a"))
+    assert "test_msgs" in out and "std_msgs" not in out, out
+    assert "std_msgs" in lines(ros2("interface", "packages"))
+
+
+def test_interface_package_only_srvs() -> None:
+    # ros2interface/ros2interface/verb/package.py (-s)
+    out = lines(ros2("interface", "package", "-s", "test_msgs"))
+    assert out and all(line.startswith("test_msgs/srv/") for line in out), out
+
+
+def test_interface_proto() -> None:
+    # ros2interface/ros2interface/verb/proto.py (the request of a service, quoted)
+    assert ros2("interface", "proto", "std_srvs/srv/SetBool").out == '"data: false\n"\n'
+    run = ros2("interface", "proto", "--no-quotes", "geometry_msgs/msg/Point")
+    assert run.out == "x: 0.0\ny: 0.0\nz: 0.0\n\n"
+
+
+def test_pkg_xml_tag() -> None:
+    # ros2pkg/ros2pkg/verb/xml.py (-t: each element's text)
+    share = Path(lines(ros2("pkg", "prefix", "--share", "std_msgs"))[0])
+    version = ET.parse(share / "package.xml").getroot().findtext("version")
+    assert lines(ros2("pkg", "xml", "std_msgs", "-t", "version")) == [version]
+    assert ros2("pkg", "xml", "std_msgs", "-t", "not_a_tag") == (1, "", "XML tag not found\n")
+
+
+def test_pkg_xml_prints_the_manifest() -> None:
+    # ros2pkg/ros2pkg/verb/xml.py (ET.dump of package.xml)
+    out = ros2("pkg", "xml", "std_msgs").out
+    assert ET.fromstring(out).findtext("name") == "std_msgs"
+    assert ros2("pkg", "xml", "not_a_package") == (1, "", "Package not found\n")
+
+
+def run_until(argv: list[str], want: re.Pattern[str], count: int) -> list[str]:
+    """``ros2 ARGV`` as a process of its own, until ``count`` lines match ``want``; then
+    Ctrl-C, which must end it with exit code 0. Its lines up to then."""
+    process = subprocess.Popen(
+        [sys.executable, "-m", "rosbook.cli", *argv],
+        stdout=subprocess.PIPE,
+        text=True,
+        start_new_session=True,
+    )
+    guard = threading.Timer(HANG_S, process.kill)  # a hang ends the output, and the test
+    guard.start()
+    seen: list[str] = []
+    try:
+        assert process.stdout is not None
+        for line in process.stdout:  # ends when the process does
+            seen.append(line.rstrip("\n"))
+            if sum(bool(want.fullmatch(line_)) for line_ in seen) == count:
+                break
+        process.send_signal(signal.SIGINT)
+        assert process.wait(timeout=HANG_S) == 0, seen
+    finally:
+        guard.cancel()
+        if process.poll() is None:
+            os.killpg(process.pid, signal.SIGKILL)
+            process.wait()
+    assert sum(bool(want.fullmatch(line)) for line in seen) == count, seen
+    return seen
+
+
+def test_service_call_rate_repeats_until_interrupted() -> None:
+    # ros2service/ros2service/verb/call.py (-r: a call each period until Ctrl-C)
+    argv = ["service", "call", "-r", "20", "/my_ns/echo", "test_msgs/srv/BasicTypes"]
+    out = run_until([*argv, "{int32_value: 5}"], re.compile("response:"), 3)
+    assert out.count(echo_call_output(int32_value=5)[1]) == 3, out
+
+
+def test_topic_delay() -> None:
+    # ros2topic/test/test_cli.py::test_topic_delay (stamped as sent: a delay near 0)
+    stats = re.compile(r"\tmin: \d+\.\d{3}s max: \d+\.\d{3}s std dev: \d+\.\d{5}s window: \d+")
+    out = run_until(["topic", "delay", "/cmd_vel"], stats, 1)
+    average = out[-2]  # the line before the statistics
+    assert re.fullmatch(r"average delay: \d+\.\d{3}", average), out
+    assert float(average.split(": ")[1]) < 1.0, out  # a delay, not the stamp itself
+
+
+def test_topic_echo_raw() -> None:
+    # ros2topic/ros2topic/verb/echo.py (--raw: the serialized bytes)
+    out = lines(ros2("topic", "echo", "--once", "--raw", "/chatter"))
+    assert (
+        len(out) == 2 and out[0].startswith("b'") and b"Hello World" in ast.literal_eval(out[0])
+    ), out
+
+
+def test_topic_echo_flow_style() -> None:
+    # ros2topic/ros2topic/verb/echo.py (--flow-style)
+    out = lines(ros2("topic", "echo", "--once", "--flow-style", "/defaults"))
+    assert out[0].startswith("{bool_value: true, byte_value: '2', char_value: 100"), out
+
+
+def test_topic_pub_stdin(monkeypatch: pytest.MonkeyPatch) -> None:
+    # ros2topic/ros2topic/verb/pub.py (--stdin: the values from standard input)
+    monkeypatch.setattr("sys.stdin", io.StringIO("{data: from stdin}\n"))
+    run = run_ros2("topic", "pub", "--once", "--stdin", "/chit_chatter", "std_msgs/msg/String")
+    assert "publishing #1: std_msgs.msg.String(data='from stdin')" in lines(run), run
+
+
+def test_service_call_stdin(monkeypatch: pytest.MonkeyPatch) -> None:
+    # ros2service/ros2service/verb/call.py (--stdin)
+    monkeypatch.setattr("sys.stdin", io.StringIO("{int32_value: 7}\n"))
+    run = run_ros2("service", "call", "--stdin", "/my_ns/echo", "test_msgs/srv/BasicTypes")
+    assert lines(run) == echo_call_output(int32_value=7)
+
+
+def test_action_send_goal_stdin(monkeypatch: pytest.MonkeyPatch) -> None:
+    # ros2action/ros2action/verb/send_goal.py (--stdin)
+    monkeypatch.setattr("sys.stdin", io.StringIO("{order: 2}\n"))
+    run = run_ros2("action", "send_goal", "--stdin", "/fibonacci", "test_msgs/action/Fibonacci")
+    assert lines(run)[-1] == "Goal finished with status: SUCCEEDED", run
+
+
+def test_param_list_param_prefixes() -> None:
+    # ros2param/ros2param/verb/list.py (--param-prefixes: the node's list_parameters prefixes)
+    run = ros2("param", "list", "/foo/parameter_node", "--param-prefixes", "foo")
+    assert lines(run) == ["  foo.bar.str_param", "  foo.str_param"]
+
+
+def test_param_list_include_hidden_nodes() -> None:
+    # ros2param/ros2param/verb/list.py (--include-hidden-nodes)
+    assert "/_hidden_talker:" in lines(ros2("param", "list", "--include-hidden-nodes"))
+    assert "/_hidden_talker:" not in lines(ros2("param", "list"))
+
+
+def test_param_get_of_a_hidden_node_needs_include_hidden_nodes() -> None:
+    # ros2param/ros2param/verb/get.py (wait_for_node with include_hidden_nodes)
+    argv = ("param", "get", "/_hidden_talker", "use_sim_time")
+    assert ros2(*argv) == (1, "", "Node not found\n")
+    assert lines(ros2(*argv, "--include-hidden-nodes")) == ["Boolean value is: False"]
+
+
+def test_param_delete_of_a_statically_typed_parameter_is_refused() -> None:
+    # ros2param/ros2param/verb/delete.py (a refusal on stderr, exit 0)
+    run = ros2("param", "delete", "/foo/parameter_node", "double_param")
+    assert run.code == 0 and run.out == "", run
+    assert run.err.startswith("Deleting parameter failed"), run
+    assert lines(ros2("param", "get", "/foo/parameter_node", "double_param")) == [
+        "Double value is: 1.23"
+    ]
+
+
+def test_discovery_options_are_honoured() -> None:
+    # ros2cli/node/direct.py (--spin-time, -s/--use-sim-time)
+    assert lines(ros2("topic", "list", "--spin-time", "0.5")) == lines(ros2("topic", "list"))
+    out = lines(ros2("topic", "echo", "-s", "--once", "/chatter"))
+    assert out[-1] == "---" and out[0].startswith("data: 'Hello World: "), out
+
+
+@pytest.mark.slow
+def test_topic_hz_filter_counts_only_matching_messages() -> None:
+    # ros2topic/test/test_cli.py::test_filtered_topic_hz (every tenth message of 20 Hz)
+    expression = "int(m.data.split(': ')[1]) % 10 == 0"
+    argv = ("topic", "hz", "--duration", "4", "--wall-time", "--filter", expression, "/chatter")
+    rates = [float(line.split(": ")[1]) for line in lines(ros2(*argv)) if "rate:" in line]
+    assert rates and rates[-1] < 5.0, rates  # about 2 Hz; the talker's own 20 Hz unfiltered

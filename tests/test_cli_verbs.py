@@ -255,6 +255,21 @@ def test_service_echo_shows_a_real_request_and_response(fixture_node) -> None:
     assert events[0]["info"]["sequence_number"] == events[1]["info"]["sequence_number"]
 
 
+def test_service_echo_csv_no_str_prints_a_line_per_event(fixture_node) -> None:
+    # ros2service/ros2service/verb/echo.py: --csv (message_to_csv), --no-str
+    command = Command("service", "echo", "-n", "2", "--csv", "--no-str", "/toggle_test")
+    command.wait_until(
+        lambda: fixture_node.count_subscribers("/toggle_test/_service_event") > 0,
+        "service echo to subscribe to the events",
+    )
+    result = run("service", "call", "/toggle_test", "std_srvs/srv/SetBool", "{data: false}")
+    assert result.returncode == 0, result.stderr
+    assert command.finish() == (0, "")
+    received, sent = command.lines
+    assert received.startswith("1,") and received.endswith(",False,"), command.lines
+    assert sent.startswith("2,") and sent.endswith(",True,<string length: <3>>"), command.lines
+
+
 # service echo is checked in the fast tier by test_service_echo_shows_a_real_request_and_response
 @pytest.mark.slow
 def test_service_echo_without_introspection_says_so_and_waits(fixture_node) -> None:

@@ -15,7 +15,7 @@ from rclpy.action.graph import (
 )
 from rclpy.node import Node
 
-from rosbook.cli import cli_node
+from rosbook.cli import ADDITION, add_values_argument, cli_node, values
 from rosbook.cli.reporting import fail
 from rosbook.runtime import graph
 from rosbook.runtime.actions import run_goal
@@ -31,18 +31,24 @@ def add_parser(verbs: argparse._SubParsersAction) -> None:
     commands = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     listing = commands.add_parser("list", help="the actions of the running nodes")
     listing.add_argument("-t", "--show-types", action="store_true", help="show each type")
+    listing.add_argument(
+        "-c", "--count-actions", action="store_true", help="Only display the number of actions"
+    )
     listing.set_defaults(func=list_actions)
     info = commands.add_parser("info", help="the servers and clients of an action")
     info.add_argument("action_name")
     info.add_argument("-t", "--show-types", action="store_true", help="show each type")
+    info.add_argument(
+        "-c", "--count", action="store_true", help="Only display the number of clients and servers"
+    )
     info.set_defaults(func=action_info)
     goal = commands.add_parser("send_goal", help="send a goal and wait for its result")
     goal.add_argument("action_name")
     goal.add_argument("action_type", help="e.g. test_msgs/action/Fibonacci")
-    goal.add_argument("goal", nargs="?", default="", help="goal as YAML: '{order: 5}'")
+    add_values_argument(goal, "goal", "", "goal as YAML: '{order: 5}'")
     goal.add_argument("-f", "--feedback", action="store_true", help="print the feedback")
     goal.add_argument(
-        "--timeout", type=float, default=math.inf, help="give up after S seconds (not in ros2)"
+        "--timeout", type=float, default=math.inf, help=f"give up after S seconds {ADDITION}"
     )
     goal.set_defaults(func=send_goal)
     add_type_parser(commands)
@@ -51,6 +57,9 @@ def add_parser(verbs: argparse._SubParsersAction) -> None:
 def list_actions(args: argparse.Namespace) -> int:
     with cli_node(settle=True) as node:
         actions = get_action_names_and_types(node)
+    if args.count_actions:
+        print(len(actions))
+        return 0
     for name, types in sorted(actions):
         print(f"{name} [{', '.join(types)}]" if args.show_types else name)
     return 0
@@ -87,7 +96,7 @@ def action_info(args: argparse.Namespace) -> int:
     print(f"Action: {action}")
     for title, users in (("Action clients", clients), ("Action servers", servers)):
         print(f"{title}: {len(users)}")
-        for name, types in users:
+        for name, types in [] if args.count else users:
             print(f"    {name} [{', '.join(types)}]" if args.show_types else f"    {name}")
     return 0
 
@@ -99,7 +108,7 @@ def send_goal(args: argparse.Namespace) -> int:
     except InterfaceError:
         return fail("The passed action type is invalid")
     try:
-        goal = from_yaml(action_type.Goal, args.goal)
+        goal = from_yaml(action_type.Goal, values(args, "goal"))
     except InterfaceError as exc:
         return fail(f"Failed to populate message fields: {exc}")
 

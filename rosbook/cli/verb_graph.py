@@ -12,7 +12,9 @@ from rosbook.viz.graph_svg import collect, to_svg
 
 def add_parser(verbs: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     p = verbs.add_parser(
-        "graph", help="Print the graph's edges, or draw it as SVG (stands in for rqt_graph)"
+        "graph",
+        help="Print the graph's edges, or draw it as SVG (stands in for rqt_graph; "
+        "this book's addition: not in ros2)",
     )
     p.add_argument("--svg", type=Path, default=None, help="write the picture to this file")
     p.add_argument("--include-hidden", action="store_true", help="include hidden nodes, topics")

@@ -6,6 +6,7 @@ from __future__ import annotations
 import argparse
 import math
 import sys
+import time
 from typing import Any
 
 import yaml
@@ -13,17 +14,32 @@ from rclpy.node import Node
 from rclpy.qos import qos_profile_services_default
 from service_msgs.msg import ServiceEventInfo
 
-from rosbook.cli import cli_node
+from rosbook.cli import (
+    ADDITION,
+    add_message_format_arguments,
+    add_strategy_arguments,
+    add_values_argument,
+    cli_node,
+    message_format,
+    values,
+)
 from rosbook.cli.reporting import fail
 from rosbook.runtime import graph
-from rosbook.runtime.interfaces import InterfaceError, from_yaml, message_class, to_plain
+from rosbook.runtime.interfaces import InterfaceError, from_yaml, message_class, to_csv, to_plain
 from rosbook.runtime.services import ServiceCallError, call
 
 
 def add_parser(verbs: argparse._SubParsersAction) -> None:
     parser = verbs.add_parser("service", help="list, inspect, call and echo services")
+    parser.add_argument(
+        "--include-hidden-services",
+        dest="verb_include_hidden_services",
+        action="store_true",
+        help="Consider hidden services as well",
+    )
     commands = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     listing = commands.add_parser("list", help="the services of the running nodes")
+    add_strategy_arguments(listing)
     listing.add_argument("-t", "--show-types", action="store_true", help="show each type")
     listing.add_argument("-c", "--count-services", action="store_true", help="only the count")
     hidden_option = {"action": "store_true", "help": "also names with a '_' part"}
@@ -31,13 +47,31 @@ def add_parser(verbs: argparse._SubParsersAction) -> None:
     listing.set_defaults(func=list_services)
     kind = commands.add_parser("type", help="the type of a service")
     kind.add_argument("service_name")
-    kind.add_argument("--include-hidden-services", **hidden_option)
+    kind.add_argument(
+        "--include-hidden-services",
+        action="store_true",
+        help=f"also names with a '_' part {ADDITION} (upstream: ros2 service --include-hidden-"
+        "services type)",
+    )
     kind.set_defaults(func=service_type)
     caller = commands.add_parser("call", help="call a service once and print the response")
     caller.add_argument("service_name")
     caller.add_argument("service_type", help="e.g. std_srvs/srv/SetBool")
-    caller.add_argument("values", nargs="?", default="", help="request as YAML: '{data: true}'")
-    caller.add_argument("--timeout", type=float, default=5.0, help="seconds to wait (default 5)")
+    add_values_argument(caller, "values", "", "request as YAML: '{data: true}'")
+    caller.add_argument(
+        "-r",
+        "--rate",
+        metavar="N",
+        type=float,
+        default=None,
+        help="Repeat the call at a specific rate in Hz",
+    )
+    caller.add_argument(
+        "--timeout",
+        type=float,
+        default=5.0,
+        help=f"seconds to wait for each response (default 5) {ADDITION}",
+    )
     caller.set_defaults(func=call_service)
     add_introspection_parsers(commands)
 
@@ -54,9 +88,16 @@ def services(node: Node, *, include_hidden: bool) -> dict[str, list[str]]:
     }
 
 
+def hidden_services(args: argparse.Namespace) -> bool:
+    """``--include-hidden-services``, given to the verb or to the command."""
+    return bool(
+        args.verb_include_hidden_services or getattr(args, "include_hidden_services", False)
+    )
+
+
 def list_services(args: argparse.Namespace) -> int:
-    with cli_node(settle=True) as node:
-        found = services(node, include_hidden=args.include_hidden_services)
+    with cli_node(settle=True, args=args) as node:
+        found = services(node, include_hidden=hidden_services(args))
     if args.count_services:
         print(len(found))
         return 0
@@ -68,7 +109,7 @@ def list_services(args: argparse.Namespace) -> int:
 def service_type(args: argparse.Namespace) -> int:
     """The service's type(s); as upstream, nothing at all and exit 1 when it is absent."""
     name = "/" + args.service_name.lstrip("/")
-    hidden = args.include_hidden_services
+    hidden = hidden_services(args)
     with cli_node() as node:
         graph.lookup(lambda g: name in services(g, include_hidden=hidden), node)
         found = services(node, include_hidden=hidden)
@@ -79,24 +120,34 @@ def service_type(args: argparse.Namespace) -> int:
 
 
 def call_service(args: argparse.Namespace) -> int:
+    """One call, or with ``-r`` one at each period until interrupted (as upstream)."""
+    if args.rate is not None and args.rate <= 0:
+        return fail("rate must be greater than zero")
     try:
         srv_type = message_class(args.service_type)
     except InterfaceError:
         return fail("The passed service type is invalid")
+    if not hasattr(srv_type, "Request"):
+        return fail("The passed type is not a service")
     try:
-        request = from_yaml(srv_type.Request, args.values)
+        request = from_yaml(srv_type.Request, values(args, "values"))
     except InterfaceError as exc:
         return fail(f"Failed to populate field: {exc}")
     with cli_node() as node:  # waits up to --timeout for a server, as asked
         print("waiting for service to become available...")
-        print(f"requester: making request: {request!r}\n")
-        try:
-            response = call(node, srv_type, args.service_name, request, timeout=args.timeout)
-        except ServiceCallError as exc:
-            print(f"ros2 service call: {exc}", file=sys.stderr)
-            return 1
-    print(f"response:\n{response!r}\n")
-    return 0
+        while True:
+            print(f"requester: making request: {request!r}\n", flush=True)
+            last_call = time.monotonic()
+            try:
+                response = call(node, srv_type, args.service_name, request, timeout=args.timeout)
+            except ServiceCallError as exc:
+                print(f"ros2 service call: {exc}", file=sys.stderr)
+                return 1
+            print(f"response:\n{response!r}\n", flush=True)
+            if args.rate is None:
+                return 0
+            # the next call is due one period after this one began (upstream's pacing)
+            time.sleep(max(0.0, last_call + 1.0 / args.rate - time.monotonic()))
 
 
 # -- echo, info, find (as ros2service's) ---------------------------------------------
@@ -104,12 +155,13 @@ def add_introspection_parsers(commands: argparse._SubParsersAction) -> None:  # 
     echo = commands.add_parser("echo", help="Echo a service (its introspection events)")
     echo.add_argument("service_name", help="Name of the ROS service to echo (e.g. '/add_two_ints')")
     echo.add_argument("service_type", nargs="?", help="Type of the ROS service")
-    echo.add_argument("--flow-style", action="store_true", help="Print collections in flow style")
+    add_message_format_arguments(echo)
     echo.add_argument(
-        "-n", "--max-count", type=int, default=None, help="exit after N events (not in ros2)"
+        "-n", "--max-count", type=int, default=None, help=f"exit after N events {ADDITION}"
     )
     echo.set_defaults(func=service_echo)
     info = commands.add_parser("info", help="Print information about a service")
+    add_strategy_arguments(info)
     info.add_argument("service_name", help="Name of the ROS service (e.g. '/add_two_ints')")
     info.add_argument(
         "--include-hidden-services", action="store_true", help="Consider hidden services as well"
@@ -144,14 +196,19 @@ def service_echo(args: argparse.Namespace) -> int:
     names = _event_names()
     printed = 0
 
+    options = message_format(args)
+
     def show(event: Any) -> None:
         nonlocal printed
-        plain = to_plain(event)
-        plain["info"]["event_type"] = names.get(event.info.event_type, event.info.event_type)
-        text = yaml.safe_dump(
-            plain, default_flow_style=args.flow_style, sort_keys=False, width=sys.maxsize
-        )
-        print(text + "---", flush=True)
+        if args.csv:
+            print(to_csv(event, **options), flush=True)
+        else:
+            plain = to_plain(event, **options)
+            plain["info"]["event_type"] = names.get(event.info.event_type, event.info.event_type)
+            text = yaml.safe_dump(
+                plain, default_flow_style=args.flow_style, sort_keys=False, width=sys.maxsize
+            )
+            print(text + "---", flush=True)
         printed += 1
 
     with cli_node() as node:
@@ -187,7 +244,7 @@ def service_info(args: argparse.Namespace) -> int:
     with cli_node() as node:
         if graph.lookup(lambda g: name in dict(g.get_service_names_and_types()), node):
             graph.settle(node)  # every server and client of it
-        types = services(node, include_hidden=args.include_hidden_services).get(name)
+        types = services(node, include_hidden=hidden_services(args)).get(name)
         if types is None:
             print(f"Unknown service '{name}'", file=sys.stderr)
             return 1
@@ -199,7 +256,7 @@ def service_info(args: argparse.Namespace) -> int:
 
 def service_find(args: argparse.Namespace) -> int:
     with cli_node(settle=True) as node:
-        found_all = services(node, include_hidden=args.include_hidden_services)
+        found_all = services(node, include_hidden=hidden_services(args))
     found = [name for name, types in found_all.items() if args.service_type in types]
     print(*([len(found)] if args.count_services else found), sep="\n")
     return 0

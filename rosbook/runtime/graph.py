@@ -13,7 +13,7 @@ session, so the talker in the next cell keeps publishing while ``echo`` listens.
     graph.node_names()                       # ros2 node list
     graph.topic_names_and_types()            # ros2 topic list -t
     print(graph.topic_info('/chatter').format(verbose=True))   # ros2 topic info -v
-    graph.echo('/chatter', count=3)          # ros2 topic echo -n 3 (as messages)
+    graph.echo('/chatter', count=3)          # ros2 topic echo, three messages (as messages)
     graph.hz('/chatter', duration=2.0)       # ros2 topic hz
     print(graph.node_info('/talker').format())                 # ros2 node info
     print(interface_show('geometry_msgs/msg/Pose'))            # ros2 interface show
@@ -492,7 +492,7 @@ def echo(
     on_message: Callable[[Any], None] | None = None,
     wait: float = 0.0,
 ) -> list[Any]:
-    """Receive ``count`` messages on ``topic`` (``ros2 topic echo -n COUNT``; inf: no limit).
+    """Receive ``count`` messages on ``topic`` (``ros2 topic echo`` until ``count``; inf: no limit).
 
     Returns the messages received within ``timeout`` seconds (fewer if the publisher
     was slower); ``on_message`` is called with each as it arrives. ``wait``: seconds
@@ -542,23 +542,40 @@ class HzMonitor:
     """Stamps each message of a topic with the observer's clock on arrival.
 
     Timestamps come from the node's clock, so an observer with ``use_sim_time``
-    measures simulated time, like ``ros2 topic hz`` does. It only records: whoever
-    spins the observer (``hz``, the session, a ``SimClock``) drives it.
+    measures simulated time, like ``ros2 topic hz`` does (``wall_time``: the wall
+    clock, its ``--wall-time``); ``keep``: only messages it accepts count (its
+    ``--filter``). It only records: whoever spins the observer (``hz``, the session,
+    a ``SimClock``) drives it.
     """
 
     def __init__(
-        self, topic: str, node: Node | None = None, *, window: int = 10_000, wait: float = 0.0
+        self,
+        topic: str,
+        node: Node | None = None,
+        *,
+        window: int = 10_000,
+        wait: float = 0.0,
+        wall_time: bool = False,
+        keep: Callable[[Any], bool] | None = None,
     ) -> None:
         self.node = observer(node)
         info, msg_type = _published(topic, self.node, wait)
         self.topic = info.name
         self.times: deque[int] = deque(maxlen=window + 1)
+        self._wall_time, self._keep = wall_time, keep
         self._subscription = self.node.create_subscription(
-            msg_type, info.name, self._stamp, qos_for_publishers(info.publishers), raw=True
+            msg_type,
+            info.name,
+            self._stamp,
+            qos_for_publishers(info.publishers),
+            raw=keep is None,  # a filter reads the message; counting needs only its arrival
         )
 
-    def _stamp(self, _msg: bytes) -> None:
-        self.times.append(self.node.get_clock().now().nanoseconds)
+    def _stamp(self, msg: Any) -> None:
+        if self._keep is not None and not self._keep(msg):
+            return
+        now = time.time_ns() if self._wall_time else self.node.get_clock().now().nanoseconds
+        self.times.append(now)
 
     @property
     def count(self) -> int:

@@ -108,29 +108,33 @@ def definition(type_name: str) -> str:
     return definition_path(type_name).read_text()
 
 
-def show(type_name: str) -> str:
+def show(type_name: str, *, comments: bool = True, nested_comments: bool = False) -> str:
     """What ``ros2 interface show TYPE`` prints: the definition, nested types expanded.
 
     Each field whose type is itself a message is followed by that message's fields,
-    indented by a tab, without their comments (the real command's default).
+    indented by a tab. As upstream, the definition keeps its comments and blank lines
+    unless ``comments`` is false (``--no-comments``); nested ones lose theirs unless
+    ``nested_comments`` (``--all-comments``).
     """
     package, _, _ = split_type(type_name)
-    lines = list(_expand(definition(type_name), package, depth=0))
+    lines = list(_expand(definition(type_name), package, 0, comments, nested_comments))
     return "\n".join(lines).rstrip("\n")
 
 
 _FIELD = re.compile(r"^\s*([A-Za-z][\w/]*)(?:<=\d+)?(\[[^\]]*\])?\s+([A-Za-z]\w*)(\s|=|$)")
 
 
-def _expand(text: str, package: str, depth: int) -> Iterator[str]:
+def _expand(
+    text: str, package: str, depth: int, comments: bool, nested_comments: bool
+) -> Iterator[str]:
     indent = "\t" * depth
     for raw in text.splitlines():
         line = raw.rstrip()
-        if depth:
+        if not comments:
             line = _strip_comment(line)
             if not line.strip():
                 continue
-        yield indent + line
+        yield indent + line if line else ""
         match = _FIELD.match(line)
         if not match or line.lstrip().startswith("#"):
             continue
@@ -141,7 +145,9 @@ def _expand(text: str, package: str, depth: int) -> Iterator[str]:
         if nested is None:
             continue
         nested_package = nested.split("/", 1)[0]
-        yield from _expand(definition(nested), nested_package, depth + 1)
+        yield from _expand(
+            definition(nested), nested_package, depth + 1, nested_comments, nested_comments
+        )
 
 
 def _strip_comment(line: str) -> str:
@@ -197,29 +203,116 @@ def fields(type_name: str) -> dict[str, str]:
     return dict(message_class(type_name).get_fields_and_field_types())
 
 
-def to_plain(msg: Any) -> Any:
+def to_plain(
+    msg: Any,
+    *,
+    truncate_length: int | None = None,
+    no_arr: bool = False,
+    no_str: bool = False,
+    _slot: Any = None,
+) -> Any:
     """``msg`` as nested dicts, lists and scalars, in field order.
 
     A ``byte`` (``bytes`` in Python) becomes the text of its characters, as upstream's
     ``rosidl_runtime_py.message_to_yaml`` writes it: ``byte_value: '2'``, not binary.
+    As there, ``truncate_length`` cuts longer strings and sequences (``...`` marks the
+    cut), ``no_arr`` shows an array field as its type and length, ``no_str`` a string
+    field as its length.
     """
+    options = {"truncate_length": truncate_length, "no_arr": no_arr, "no_str": no_str}
+    cut = truncate_length
     if isinstance(msg, bytes):
-        return "".join(chr(c) for c in msg)
+        text = "".join(chr(c) for c in msg[:cut])
+        return text + "..." if cut is not None and len(msg) > cut else text
+    if isinstance(msg, str):
+        if no_str:
+            return f"<string length: <{len(msg)}>>"
+        return msg[:cut] + "..." if cut is not None and len(msg) > cut else msg
     if hasattr(msg, "get_fields_and_field_types"):
-        return {name: to_plain(getattr(msg, name)) for name in msg.get_fields_and_field_types()}
+        return {
+            name: to_plain(getattr(msg, name), _slot=slot, **options)
+            for name, slot in zip(msg.get_fields_and_field_types(), msg.SLOT_TYPES)
+        }
     if isinstance(msg, (list, tuple)) or type(msg).__name__ in ("ndarray", "array"):
-        return [to_plain(item) for item in msg]
+        if no_arr and _slot is not None:
+            return _array_summary(msg, _slot)
+        items = [to_plain(item, **options) for item in msg[:cut]]
+        return items + ["..."] if cut is not None and len(msg) > cut else items
     if hasattr(msg, "item"):  # numpy scalar
         return msg.item()
     return msg
 
 
-def to_yaml(msg: Any) -> str:
-    """``msg`` as the YAML block ``ros2 topic echo`` prints (without the ``---``)."""
+def _type_label(value_type: Any) -> str:
+    """An element type's name as ``--no-arr`` shows it (``int32``, ``string``, ``pkg/msg/T``)."""
+    from rosidl_parser import definition as d
+
+    if isinstance(value_type, d.BasicType):
+        return str(value_type.typename)
+    if isinstance(value_type, d.AbstractWString):
+        return "wstring"
+    if isinstance(value_type, d.AbstractString):
+        return "string"
+    if isinstance(value_type, d.NamespacedType):
+        return "/".join(value_type.namespaced_name())
+    if isinstance(value_type, d.NamedType):
+        return str(value_type.name)
+    return "unknown"
+
+
+def _array_summary(value: Any, slot: Any) -> str:
+    """What ``--no-arr`` prints for an array or sequence field (upstream's wording)."""
+    from rosidl_parser import definition as d
+
+    label = _type_label(slot.value_type)
+    if isinstance(slot, d.Array):
+        return f"<array type: {label}[{slot.size}]>"
+    if isinstance(slot, d.BoundedSequence):
+        return f"<sequence type: {label}[{slot.maximum_size}], length: {len(value)}>"
+    if isinstance(slot, d.UnboundedSequence):
+        return f"<sequence type: {label}, length: {len(value)}>"
+    return "unknown"
+
+
+def to_yaml(msg: Any, *, flow_style: bool = False, **options: Any) -> str:
+    """``msg`` as the YAML block ``ros2 topic echo`` prints (without the ``---``);
+    ``options``: ``to_plain``'s."""
     text: str = yaml.safe_dump(
-        to_plain(msg), default_flow_style=False, sort_keys=False, allow_unicode=True, width=1000
+        to_plain(msg, **options),
+        default_flow_style=flow_style,
+        sort_keys=False,
+        allow_unicode=True,
+        width=sys.maxsize,
     )
     return text.rstrip("\n")
+
+
+def to_csv(
+    msg: Any, *, truncate_length: int | None = None, no_arr: bool = False, no_str: bool = False
+) -> str:
+    """``msg`` as the one line ``ros2 topic echo --csv`` prints: every leaf value in
+    field order, comma-separated (upstream's ``message_to_csv``)."""
+    options = {"truncate_length": truncate_length, "no_arr": no_arr, "no_str": no_str}
+    cut = truncate_length
+
+    def text(value: Any, slot: Any = None) -> str:
+        if isinstance(value, (list, tuple)) or type(value).__name__ in ("ndarray", "array"):
+            if no_arr and slot is not None:
+                return _array_summary(value, slot)
+            items = [text(item) for item in value[:cut]]
+            return ",".join(items + (["..."] if cut is not None and len(value) > cut else []))
+        if isinstance(value, str) and no_str:
+            return f"<string length: <{len(value)}>>"
+        if isinstance(value, (str, bytes)) and cut is not None and len(value) > cut:
+            value = value[:cut] + ("..." if isinstance(value, str) else b"...")
+        if hasattr(value, "get_fields_and_field_types"):
+            return to_csv(value, **options)
+        return str(value)
+
+    return ",".join(
+        text(getattr(msg, name), slot)
+        for name, slot in zip(msg.get_fields_and_field_types(), msg.SLOT_TYPES)
+    )
 
 
 def fill(message: Any, values: dict[str, Any] | None) -> Any:

@@ -10,7 +10,7 @@ from __future__ import annotations
 from typing import Any
 
 from rcl_interfaces.msg import ParameterType, SetParametersResult
-from rcl_interfaces.srv import GetParameters, ListParameters, SetParameters
+from rcl_interfaces.srv import DescribeParameters, GetParameters, ListParameters, SetParameters
 from rclpy.node import Node
 from rclpy.parameter import Parameter, get_parameter_value, parameter_value_to_python
 
@@ -25,9 +25,15 @@ def _service(target: str, name: str) -> str:
     return "/" + target.strip("/") + "/" + name
 
 
-def list_parameters(node: Node, target: str, timeout: float = 2.0) -> list[str]:
-    """The names of ``target``'s parameters, sorted."""
-    response = call(node, ListParameters, _service(target, "list_parameters"), timeout=timeout)
+def list_parameters(
+    node: Node, target: str, timeout: float = 2.0, prefixes: list[str] | None = None
+) -> list[str]:
+    """The names of ``target``'s parameters, sorted (only those under ``prefixes``, when
+    given, as the node's ``list_parameters`` service reads them)."""
+    request = ListParameters.Request(prefixes=list(prefixes or []))
+    response = call(
+        node, ListParameters, _service(target, "list_parameters"), request, timeout=timeout
+    )
     return sorted(response.result.names)
 
 
@@ -51,6 +57,15 @@ def get_parameter(node: Node, target: str, name: str, timeout: float = 2.0) -> A
     if value is None or value.type == ParameterType.PARAMETER_NOT_SET:
         raise ParameterError(f"node '{target}' has no parameter '{name}' (is it declared?)")
     return parameter_value_to_python(value)
+
+
+def describe_parameters(
+    node: Node, target: str, names: list[str], timeout: float = 2.0
+) -> list[Any]:
+    """``target``'s ``rcl_interfaces/msg/ParameterDescriptor`` of each of ``names``."""
+    request = DescribeParameters.Request(names=names)
+    service = _service(target, "describe_parameters")
+    return list(call(node, DescribeParameters, service, request, timeout=timeout).descriptors)
 
 
 def set_parameter(
