@@ -45,7 +45,7 @@ def test_every_scene_is_embedded_with_the_robots_links(page: str) -> None:
     robots = {
         "bot": urdf.load(DIFF_DRIVE_URDF),
         "visual": urdf.load(ROBOTS / "r2d2.urdf"),
-        "turtlebot3_burger": urdf.load(ROBOTS / "turtlebot_burger.urdf"),
+        "turtlebot3_burger": urdf.load(robots.TURTLEBOT_BURGER_URDF),
     }
     # The complete robots (scene 3 onwards) have a node for every link.
     for scene_paths in paths[2:]:
