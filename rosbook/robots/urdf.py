@@ -129,15 +129,17 @@ def _xacro_left(root: ET.Element) -> None:
     """Refuse xacro markup (``xacro:`` elements, ``${...}``, ``$(...)``) in a URDF."""
     for top in root:
         name = top.get("name")
-        outer = f'<{top.tag} name="{name}">' if name else f"<{_tag(top)}>"
+        outer = f'<{_tag(top)} name="{name}">' if name else f"<{_tag(top)}>"
         for node in top.iter():
             where = outer if node is top else f"{outer} <{_tag(node)}>"
             if node.tag.startswith(f"{{{XACRO_NAMESPACE}}}"):
-                raise URDFError(where, f"is xacro markup; {RUN_XACRO}")
+                raise URDFError(where, f"xacro markup is left in the URDF; {RUN_XACRO}")
             for attribute, value in node.attrib.items():
                 if any(mark in value for mark in XACRO_MARKS):
                     raise URDFError(
-                        where, f"attribute {attribute}={value!r} is xacro markup; {RUN_XACRO}"
+                        where,
+                        f"attribute {attribute}={value!r} is xacro markup left in the URDF; "
+                        f"{RUN_XACRO}",
                     )
 
 
@@ -155,7 +157,9 @@ def _parse(xml: str) -> ET.Element:
         return ET.fromstring(xml)
     except ET.ParseError as error:
         if "unbound prefix" in str(error) and "<xacro:" in xml:
-            raise URDFError("URDF", f"holds xacro markup (<xacro:...>); {RUN_XACRO}") from None
+            raise URDFError(
+                "URDF", f"xacro markup (<xacro:...>) is left in the URDF; {RUN_XACRO}"
+            ) from None
         raise URDFError("URDF", f"not well-formed XML ({error})") from None
 
 
@@ -281,7 +285,7 @@ def _check_part(part: ET.Element, element: str, base_dir: Path | None) -> None:
             )
         found = resources.resolve(filename, base_dir)
         if found.path is None:
-            raise URDFError(where, f"mesh file {filename!r} not found ({found.why()})")
+            raise URDFError(where, f"mesh file {filename!r} not found: {found.why()}")
     else:
         raise URDFError(
             f"{element} <{_tag(shape)}>", "unknown geometry; one of box, cylinder, sphere, mesh"
@@ -335,7 +339,7 @@ class Robot:
             path = mesh_path(filename, self.base_dir)
             if path is None:
                 found = resources.resolve(filename, self.base_dir)
-                raise URDFError(element, f"mesh file {filename!r} not found ({found.why()})")
+                raise URDFError(element, f"mesh file {filename!r} not found: {found.why()}")
             try:
                 with quiet():
                     mesh = trimesh.load(str(path), force="mesh")
@@ -532,10 +536,19 @@ def xacro(source: str | os.PathLike[str], mappings: Mapping[str, str] | None = N
             else:
                 doc = xacro_processor.process_file(str(path), mappings=args)
     except Exception as error:  # xacro's own, expat's, a file's: the document's problem
-        message = re.sub(r"<class '[\w.]+'>: ", "", str(error) or repr(error))
         where = "xacro" if path is None else f"xacro {path.name}"
-        raise URDFError(where, " ".join(message.split())) from None
+        raise URDFError(where, _xacro_message(error)) from None
     return doc.toprettyxml(indent="  ")
+
+
+def _xacro_message(error: BaseException) -> str:
+    """A xacro error in one line: its parts once each, without Python's class names."""
+    parts: list[str] = []
+    for part in (*error.args[:1], getattr(error, "exc", None), getattr(error, "suffix", None)):
+        text = " ".join(re.sub(r"<class '[\w.]+'>: ", "", str(part or "")).split())
+        if text and not any(text in seen for seen in parts):
+            parts.append(text)
+    return " ".join(parts) or repr(error)
 
 
 def _read(source: str | os.PathLike[str]) -> tuple[str, Path | None]:
