@@ -15,8 +15,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
 import urdf_fixtures
+
 from rosbook.launch.workspace import Workspace
 from rosbook.robots import urdf
 from rosbook.robots.urdf import URDFError
@@ -59,7 +59,8 @@ def error_of(source: str | Path) -> str:
 
 
 def one_link(visual: str, name: str = "base_link") -> str:
-    return f'<robot name="r"><link name="{name}"><visual><geometry>{visual}</geometry></visual></link></robot>'
+    link = f'<link name="{name}"><visual><geometry>{visual}</geometry></visual></link>'
+    return f'<robot name="r">{link}</robot>'
 
 
 # --- the tutorial's kinds of robots, from a package ------------------------------------
@@ -274,8 +275,8 @@ def test_a_xacro_error_is_one_line(tour: Path) -> None:
         '<visual><geometry><sphere radius="${radius}"/></geometry></visual></link></robot>'
     )
     assert (
-        error_of(broken)
-        == "xacro broken.urdf.xacro: name 'radius' is not defined when evaluating expression 'radius'"
+        error_of(broken) == "xacro broken.urdf.xacro: name 'radius' is not defined "
+        "when evaluating expression 'radius'"
     )
     lost = tour / "urdf" / "lost.urdf.xacro"
     lost.write_text(
