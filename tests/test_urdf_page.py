@@ -40,19 +40,18 @@ def test_the_page_loads_the_shared_viewer_once(html: Path, page: str) -> None:
 
 def test_every_scene_is_embedded_with_the_robots_links(page: str) -> None:
     scenes = bookpages.scene_commands(page)
-    assert len(scenes) == 6, "three build steps, the drive, r2d2 and the burger"
+    assert len(scenes) == 7, "three build steps, the drive, r2d2, the burger, the xacro wheels"
     paths = [{c.get("path") for c in scene} for scene in scenes]
     shown = {
-        "bot": urdf.load(DIFF_DRIVE_URDF),
-        "visual": urdf.load(ROBOTS / "r2d2.urdf"),
-        "turtlebot3_burger": urdf.load(robots.TURTLEBOT_BURGER_URDF),
+        "bot": urdf.load(DIFF_DRIVE_URDF).links,
+        "visual": urdf.load(ROBOTS / "r2d2.urdf").links,
+        "turtlebot3_burger": urdf.load(robots.TURTLEBOT_BURGER_URDF).links,
+        "wheels": ["base_link", "left_wheel", "right_wheel"],  # the chapter's xacro robot
     }
     # The complete robots (scene 3 onwards) have a node for every link.
     for scene_paths in paths[2:]:
         name = next(n for n in shown if f"/meshcat/{n}" in scene_paths)
-        missing = [
-            link for link in shown[name].links if f"/meshcat/{name}/{link}" not in scene_paths
-        ]
+        missing = [link for link in shown[name] if f"/meshcat/{name}/{link}" not in scene_paths]
         assert not missing, (name, missing)
     animations = [c for scene in scenes for c in scene if c["type"] == "set_animation"]
     assert len(animations) == 2, "the drive and r2d2 are animated"
