@@ -58,6 +58,14 @@ def error_of(source: str | Path) -> str:
     return str(error.value)
 
 
+def error_of_in(text: str, folder: Path) -> str:
+    """The one-line error of loading URDF ``text`` whose files are in ``folder``."""
+    with pytest.raises(URDFError) as error:
+        urdf.load(text, base_dir=folder)
+    assert "\n" not in str(error.value), str(error.value)
+    return str(error.value)
+
+
 def one_link(visual: str, name: str = "base_link") -> str:
     link = f'<link name="{name}"><visual><geometry>{visual}</geometry></visual></link>'
     return f'<robot name="r">{link}</robot>'
@@ -225,6 +233,16 @@ def test_blank_lines_before_the_xml_declaration_are_accepted(tmp_path: Path) -> 
 )
 def test_degenerate_or_unsupported_geometry_is_one_line(shape: str, message: str) -> None:
     assert error_of(one_link(shape, "head")) == f'<link name="head"> <visual> {message}'
+
+
+def test_a_mesh_file_without_triangles_or_unreadable_is_one_line(tmp_path: Path) -> None:
+    (tmp_path / "empty.stl").write_text("solid hand\nendsolid hand\n")
+    (tmp_path / "junk.dae").write_text("not a COLLADA file")
+    hand = '<link name="hand"> <visual> <mesh>: '
+    empty = one_link('<mesh filename="empty.stl"/>', "hand")
+    assert error_of_in(empty, tmp_path) == hand + "mesh file 'empty.stl' holds no triangles"
+    junk = error_of_in(one_link('<mesh filename="junk.dae"/>', "hand"), tmp_path)
+    assert junk.startswith(hand + "mesh file 'junk.dae' cannot be read ("), junk
 
 
 def test_a_nul_byte_is_one_line(tmp_path: Path) -> None:
