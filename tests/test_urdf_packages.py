@@ -286,6 +286,20 @@ def test_a_xacro_file_gives_the_robot_of_the_urdf_it_stands_for(tour: Path) -> N
     assert tip.visuals[0].geometry.mesh.filename == f"file://{tour}/meshes/tips/finger_tip.dae"
 
 
+def test_xacro_arguments_are_given_as_on_the_command_line(tour: Path) -> None:
+    """xacro FILE radius:=0.3, as a launch file's Command(['xacro ', ...]) runs it."""
+    made = tour / "urdf" / "ball.urdf.xacro"
+    made.write_text(
+        '<robot name="ball" xmlns:xacro="http://www.ros.org/wiki/xacro">'
+        '<xacro:arg name="radius" default="0.1"/><link name="base_link"><visual><geometry>'
+        '<sphere radius="$(arg radius)"/></geometry></visual></link></robot>'
+    )
+    default = urdf.load(made)
+    given = urdf.load(made, mappings={"radius": "0.3"})
+    assert default.model.robot.links[0].visuals[0].geometry.sphere.radius == 0.1
+    assert given.model.robot.links[0].visuals[0].geometry.sphere.radius == 0.3
+
+
 def test_a_xacro_error_is_one_line(tour: Path) -> None:
     broken = tour / "urdf" / "broken.urdf.xacro"
     broken.write_text(

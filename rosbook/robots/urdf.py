@@ -551,13 +551,15 @@ def _xacro_message(error: BaseException) -> str:
     return " ".join(parts) or repr(error)
 
 
-def _read(source: str | os.PathLike[str]) -> tuple[str, Path | None]:
+def _read(
+    source: str | os.PathLike[str], mappings: Mapping[str, str] | None = None
+) -> tuple[str, Path | None]:
     """The URDF text (xacro run for a ``.xacro`` file) and the folder it was in."""
     if _is_text(source):
         return str(source), None
     path = _file(source)
     if path.suffix == ".xacro":
-        return xacro(path), path.resolve().parent
+        return xacro(path, mappings), path.resolve().parent
     data = path.read_bytes()
     try:
         text = data.decode("utf-8-sig")
@@ -566,15 +568,20 @@ def _read(source: str | os.PathLike[str]) -> tuple[str, Path | None]:
     return text, path.resolve().parent
 
 
-def load(source: str | os.PathLike[str], base_dir: str | os.PathLike[str] | None = None) -> Robot:
+def load(
+    source: str | os.PathLike[str],
+    base_dir: str | os.PathLike[str] | None = None,
+    mappings: Mapping[str, str] | None = None,
+) -> Robot:
     """Validate and load a URDF given as XML text or as a file path.
 
-    A ``.xacro`` file is run through xacro first (see :func:`xacro`). Relative mesh
+    A ``.xacro`` file is run through xacro first, with ``mappings`` as its arguments
+    (``xacro FILE name:=value``; see :func:`xacro`). Relative mesh
     paths are taken from ``base_dir`` (default: the URDF file's folder, or the current
     folder for XML text). Raises :class:`URDFError`, one line naming the element and the
     problem, for a malformed URDF; reading it prints nothing.
     """
-    xml, folder = _read(source)
+    xml, folder = _read(source, mappings)
     xml = xml.lstrip()  # as urdfdom: blank lines before <?xml ...?> are no error
     folder = Path(base_dir) if base_dir is not None else folder
     root = validate(xml, folder)
