@@ -345,7 +345,7 @@ class Robot:
                     mesh = trimesh.load(str(path), force="mesh")
             except Exception as error:  # any reader's failure is the file's problem
                 raise URDFError(
-                    element, f"mesh file {filename!r} cannot be read ({error})"
+                    element, f"mesh file {filename!r} cannot be read ({_one_line(error)})"
                 ) from None
             if not isinstance(mesh, trimesh.Trimesh) or len(mesh.faces) == 0:
                 raise URDFError(element, f"mesh file {filename!r} holds no triangles")
@@ -541,11 +541,16 @@ def xacro(source: str | os.PathLike[str], mappings: Mapping[str, str] | None = N
     return doc.toprettyxml(indent="  ")
 
 
+def _one_line(error: object) -> str:
+    """An error's text on one line (a library's message may span several)."""
+    return " ".join(str(error).split())
+
+
 def _xacro_message(error: BaseException) -> str:
     """A xacro error in one line: its parts once each, without Python's class names."""
     parts: list[str] = []
     for part in (*error.args[:1], getattr(error, "exc", None), getattr(error, "suffix", None)):
-        text = " ".join(re.sub(r"<class '[\w.]+'>: ", "", str(part or "")).split())
+        text = _one_line(re.sub(r"<class '[\w.]+'>: ", "", str(part or "")))
         if text and not any(text in seen for seen in parts):
             parts.append(text)
     return " ".join(parts) or repr(error)
@@ -560,9 +565,10 @@ def _read(
     path = _file(source)
     if path.suffix == ".xacro":
         return xacro(path, mappings), path.resolve().parent
-    data = path.read_bytes()
     try:
-        text = data.decode("utf-8-sig")
+        text = path.read_bytes().decode("utf-8-sig")
+    except OSError as error:
+        raise URDFError("URDF", f"file {str(path)!r} cannot be read ({error.strerror})") from None
     except UnicodeDecodeError as error:
         raise URDFError("URDF", f"file {str(path)!r} is not UTF-8 text ({error})") from None
     return text, path.resolve().parent
@@ -595,7 +601,7 @@ def load(
                 mesh_dir=str(folder or Path.cwd()),
             )
     except Exception as error:  # what the checks above let through, in one line
-        raise URDFError("URDF", f"yourdfpy cannot read it ({error})") from None
+        raise URDFError("URDF", f"yourdfpy cannot read it ({_one_line(error)})") from None
     robot = Robot(model, xml, folder)
     for link in root.findall("link"):
         for visual in link.findall("visual"):
