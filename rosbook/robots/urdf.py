@@ -125,6 +125,14 @@ def mesh_path(filename: str, base_dir: Path | None) -> Path | None:
     return resources.resolve(filename, base_dir).path
 
 
+def _find_mesh(filename: str, base_dir: Path | None, element: str) -> Path:
+    """The mesh file's path; :class:`URDFError` naming ``element`` and where it looked."""
+    found = resources.resolve(filename, base_dir)
+    if found.path is None:
+        raise URDFError(element, f"mesh file {filename!r} not found: {found.why()}")
+    return found.path
+
+
 def _xacro_left(root: ET.Element) -> None:
     """Refuse xacro markup (``xacro:`` elements, ``${...}``, ``$(...)``) in a URDF."""
     for top in root:
@@ -283,9 +291,7 @@ def _check_part(part: ET.Element, element: str, base_dir: Path | None) -> None:
             raise URDFError(
                 where, f"attribute scale={shape.get('scale')!r} must be {_count(3, 'non-zero')}"
             )
-        found = resources.resolve(filename, base_dir)
-        if found.path is None:
-            raise URDFError(where, f"mesh file {filename!r} not found: {found.why()}")
+        _find_mesh(filename, base_dir, where)
     else:
         raise URDFError(
             f"{element} <{_tag(shape)}>", "unknown geometry; one of box, cylinder, sphere, mesh"
@@ -336,10 +342,7 @@ class Robot:
         triangles raises :class:`URDFError` naming ``element``.
         """
         if filename not in self._meshes:
-            path = mesh_path(filename, self.base_dir)
-            if path is None:
-                found = resources.resolve(filename, self.base_dir)
-                raise URDFError(element, f"mesh file {filename!r} not found: {found.why()}")
+            path = _find_mesh(filename, self.base_dir, element)
             try:
                 with quiet():
                     mesh = trimesh.load(str(path), force="mesh")
