@@ -265,6 +265,10 @@ def test_xacro_left_in_a_urdf_says_to_run_xacro(tour: Path) -> None:
         "<link name=\"base_link\"> <cylinder>: attribute radius='${width}' is xacro markup "
         "left in the URDF; " + RUN_XACRO
     )
+    passed_on = one_link('<sphere radius="0.1"/>').replace(
+        "</robot>", '<gazebo><plugin filename="${plugin}.so"/></gazebo></robot>'
+    )
+    assert urdf.load(passed_on).links == ["base_link"]  # urdfdom does not read <gazebo>
     undeclared = one_link('<sphere radius="0.1"/>').replace(
         "</robot>", '<xacro:include filename="x.xacro"/></robot>'
     )

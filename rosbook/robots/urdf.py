@@ -41,6 +41,8 @@ AXISLESS_TYPES = ("fixed", "floating")
 #: xacro's XML namespace, and what marks xacro text left in a URDF.
 XACRO_NAMESPACE = "http://www.ros.org/wiki/xacro"
 XACRO_MARKS = ("${", "$(")
+#: The elements of ``<robot>`` that ROS's parser reads (others are passed on unread).
+URDF_ELEMENTS = ("link", "joint", "material")
 #: How to run xacro here, for messages about xacro left in a URDF.
 RUN_XACRO = "run xacro first: urdf.load('NAME.urdf.xacro') or urdf.load(urdf.xacro(text))"
 #: Loggers of the libraries that read URDFs and meshes, silenced while they do.
@@ -134,15 +136,18 @@ def _find_mesh(filename: str, base_dir: Path | None, element: str) -> Path:
 
 
 def _xacro_left(root: ET.Element) -> None:
-    """Refuse xacro markup (``xacro:`` elements, ``${...}``, ``$(...)``) in a URDF."""
+    """Refuse xacro markup in a URDF: ``xacro:`` elements anywhere, ``${...}`` and
+    ``$(...)`` in what ROS's parser reads (links, joints, materials; a ``<gazebo>`` or
+    ``<ros2_control>`` block is passed on unread, as urdfdom does)."""
     for top in root:
+        parsed = top.tag in URDF_ELEMENTS
         name = top.get("name")
         outer = f'<{_tag(top)} name="{name}">' if name else f"<{_tag(top)}>"
         for node in top.iter():
             where = outer if node is top else f"{outer} <{_tag(node)}>"
             if node.tag.startswith(f"{{{XACRO_NAMESPACE}}}"):
                 raise URDFError(where, f"xacro markup is left in the URDF; {RUN_XACRO}")
-            for attribute, value in node.attrib.items():
+            for attribute, value in node.attrib.items() if parsed else ():
                 if any(mark in value for mark in XACRO_MARKS):
                     raise URDFError(
                         where,
