@@ -16,6 +16,8 @@ from rosbook.viz.scene import VIEWER_JS
 
 CHAPTER = "book/urdf_digital_twin"
 ROBOTS = robots.FOLDER  # the example robots ship with rosbook
+#: The chapter's scenes: three build steps, the drive, r2d2, the burger, the xacro wheels.
+SCENES = 7
 
 
 @pytest.fixture(scope="module")
@@ -40,7 +42,7 @@ def test_the_page_loads_the_shared_viewer_once(html: Path, page: str) -> None:
 
 def test_every_scene_is_embedded_with_the_robots_links(page: str) -> None:
     scenes = bookpages.scene_commands(page)
-    assert len(scenes) == 7, "three build steps, the drive, r2d2, the burger, the xacro wheels"
+    assert len(scenes) == SCENES
     paths = [{c.get("path") for c in scene} for scene in scenes]
     shown = {
         "bot": urdf.load(DIFF_DRIVE_URDF).links,
@@ -69,7 +71,7 @@ def test_page_weight_beyond_the_theme_is_under_2_mb(html: Path) -> None:
 def test_the_inline_scene_scripts_are_valid_javascript(page: str, tmp_path: Path) -> None:
     scripts = re.findall(r"<script>(.*?)</script>", page, re.S)
     players = [s for s in scripts if "MeshCat.Viewer" in s]
-    assert len(players) == 6
+    assert len(players) == SCENES
     for i, script in enumerate(players):
         path = tmp_path / f"player{i}.js"
         path.write_text(script)
