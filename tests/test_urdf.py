@@ -16,7 +16,7 @@ from rosbook.robots.urdf import URDFError
 ROBOTS = robots.FOLDER  # the example robots ship with rosbook
 DIFF_DRIVE = DIFF_DRIVE_URDF  # the lecture robot ships with rosbook
 R2D2 = ROBOTS / "r2d2.urdf"
-TURTLEBOT = ROBOTS / "turtlebot_burger.urdf"
+TURTLEBOT = robots.TURTLEBOT_BURGER_URDF
 
 ARM = """<robot name="arm">
   <link name="base_link"/>

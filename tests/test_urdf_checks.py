@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import pytest
 
 from rosbook.labs import lab04 as urdf_checks
@@ -77,3 +79,12 @@ def test_each_mistake_is_explained(mistake: str) -> None:
     with pytest.raises(AssertionError) as error:
         check_all(xml)  # type: ignore[arg-type]
     assert message in str(error.value), str(error.value)
+
+
+def test_a_students_urdf_is_text_never_a_path_to_a_file(tmp_path: Path) -> None:
+    """urdf.load reads a string not starting with "<" as a path (a .xacro one through
+    xacro): the check takes the student's value as text only."""
+    named = tmp_path / "<robot.urdf.xacro"
+    named.write_text(DIFF_DRIVE_URDF.read_text())
+    with pytest.raises(AssertionError, match="must be a string holding your URDF"):
+        urdf_checks.load_student_urdf(str(named))

@@ -16,6 +16,8 @@ from rosbook.viz.scene import VIEWER_JS
 
 CHAPTER = "book/urdf_digital_twin"
 ROBOTS = robots.FOLDER  # the example robots ship with rosbook
+#: The chapter's scenes: three build steps, the drive, r2d2, the burger, the xacro wheels.
+SCENES = 7
 
 
 @pytest.fixture(scope="module")
@@ -40,19 +42,18 @@ def test_the_page_loads_the_shared_viewer_once(html: Path, page: str) -> None:
 
 def test_every_scene_is_embedded_with_the_robots_links(page: str) -> None:
     scenes = bookpages.scene_commands(page)
-    assert len(scenes) == 6, "three build steps, the drive, r2d2 and the burger"
+    assert len(scenes) == SCENES
     paths = [{c.get("path") for c in scene} for scene in scenes]
-    robots = {
-        "bot": urdf.load(DIFF_DRIVE_URDF),
-        "visual": urdf.load(ROBOTS / "r2d2.urdf"),
-        "turtlebot3_burger": urdf.load(ROBOTS / "turtlebot_burger.urdf"),
+    shown = {
+        "bot": urdf.load(DIFF_DRIVE_URDF).links,
+        "visual": urdf.load(ROBOTS / "r2d2.urdf").links,
+        "turtlebot3_burger": urdf.load(robots.TURTLEBOT_BURGER_URDF).links,
+        "wheels": ["base_link", "left_wheel", "right_wheel"],  # the chapter's xacro robot
     }
     # The complete robots (scene 3 onwards) have a node for every link.
     for scene_paths in paths[2:]:
-        name = next(n for n in robots if f"/meshcat/{n}" in scene_paths)
-        missing = [
-            link for link in robots[name].links if f"/meshcat/{name}/{link}" not in scene_paths
-        ]
+        name = next(n for n in shown if f"/meshcat/{n}" in scene_paths)
+        missing = [link for link in shown[name] if f"/meshcat/{name}/{link}" not in scene_paths]
         assert not missing, (name, missing)
     animations = [c for scene in scenes for c in scene if c["type"] == "set_animation"]
     assert len(animations) == 2, "the drive and r2d2 are animated"
@@ -70,7 +71,7 @@ def test_page_weight_beyond_the_theme_is_under_2_mb(html: Path) -> None:
 def test_the_inline_scene_scripts_are_valid_javascript(page: str, tmp_path: Path) -> None:
     scripts = re.findall(r"<script>(.*?)</script>", page, re.S)
     players = [s for s in scripts if "MeshCat.Viewer" in s]
-    assert len(players) == 6
+    assert len(players) == SCENES
     for i, script in enumerate(players):
         path = tmp_path / f"player{i}.js"
         path.write_text(script)

@@ -149,7 +149,7 @@ def test_an_animation_has_a_track_for_every_link_and_the_base(bot: urdf.Robot) -
 
 @pytest.mark.parametrize(
     "path",
-    [ROBOTS / "r2d2.urdf", ROBOTS / "turtlebot_burger.urdf", DIFF_DRIVE_URDF],
+    [ROBOTS / "r2d2.urdf", robots.TURTLEBOT_BURGER_URDF, DIFF_DRIVE_URDF],
     ids=["r2d2", "turtlebot_burger", "diff_drive"],
 )
 def test_exported_scene_contains_every_link(path: Path) -> None:
@@ -167,7 +167,7 @@ def test_exported_scene_contains_every_link(path: Path) -> None:
 
 
 def test_meshes_are_drawn_as_triangles_scaled_by_the_urdf() -> None:
-    burger = urdf.load(ROBOTS / "turtlebot_burger.urdf")
+    burger = urdf.load(robots.TURTLEBOT_BURGER_URDF)
     commands = viz.RobotView(burger).scene().commands
     lds = last(commands, "set_object", "/meshcat/turtlebot3_burger/base_scan/visual_0")
     geometry = lds["object"]["geometries"][0]

@@ -33,7 +33,8 @@ def _fmt(values: Sequence[float]) -> str:
 
 def load_student_urdf(xml: object, what: str = "DIFF_DRIVE_URDF") -> Robot:
     """Load a student's URDF string; a failure names the element and the problem."""
-    if not isinstance(xml, str) or "<robot" not in xml:
+    # Text only: urdf.load reads a string that does not start with "<" as a file's path.
+    if not isinstance(xml, str) or "<robot" not in xml or not xml.lstrip().startswith("<"):
         raise AssertionError(
             f"{what} must be a string holding your URDF (<robot ...>), got {xml!r:.80}"
         )

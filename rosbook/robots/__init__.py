@@ -4,7 +4,8 @@
 writes step by step, lab 4 asks for, and :mod:`rosbook.sim` simulates (its wheel joints
 turn forwards for positive angles, as the simulator's wheel angles do). ``R2D2_URDF``
 and ``TURTLEBOT_BURGER_URDF`` are robots written elsewhere, redrawn for the book (the
-burger's ``package://`` meshes are in ``meshes/`` beside it).
+burger is a ROS package of its own, ``turtlebot3_description/``, in its usual layout:
+``package.xml``, ``urdf/`` and the ``meshes/`` its ``package://`` URIs name).
 """
 
 from __future__ import annotations
@@ -20,7 +21,7 @@ DIFF_DRIVE_URDF = FOLDER / "diff_drive.urdf"
 #: The ROS URDF tutorial's r2d2, with boxes for its finger meshes.
 R2D2_URDF = FOLDER / "r2d2.urdf"
 #: A TurtleBot3-Burger-style robot whose parts are STL meshes (stand-in shapes).
-TURTLEBOT_BURGER_URDF = FOLDER / "turtlebot_burger.urdf"
+TURTLEBOT_BURGER_URDF = FOLDER / "turtlebot3_description" / "urdf" / "turtlebot_burger.urdf"
 #: Its wheel joints (continuous; a positive angle rolls the robot forwards).
 LEFT_WHEEL_JOINT = "base_link_left_wheel"
 RIGHT_WHEEL_JOINT = "base_link_right_wheel"

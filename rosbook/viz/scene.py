@@ -38,7 +38,7 @@ import umsgpack
 from meshcat.animation import Animation
 from meshcat.visualizer import ViewerWindow
 
-from rosbook.robots.urdf import Robot, mesh_path
+from rosbook.robots.urdf import Robot
 
 #: The MeshCat viewer (three.js and MeshCat's JavaScript, about 0.85 MB, minified).
 VIEWER_JS = Path(meshcat.__file__).parent / "viewer" / "dist" / "main.min.js"
@@ -591,8 +591,7 @@ class RobotView:
         if shape.sphere is not None:
             return g.Sphere(float(shape.sphere.radius)), np.eye(4)
         if shape.mesh is not None:
-            path = mesh_path(shape.mesh.filename, self.robot.base_dir)
-            mesh = trimesh.load(str(path), force="mesh")
+            mesh = self.robot.mesh(shape.mesh.filename)
             vertices = np.asarray(mesh.vertices, dtype=float)
             if shape.mesh.scale is not None:
                 vertices = vertices * np.asarray(shape.mesh.scale, dtype=float)
@@ -699,8 +698,7 @@ def _visual_mesh(robot: Robot, visual: Any) -> trimesh.Trimesh | None:
     elif shape.sphere is not None:
         mesh = trimesh.creation.icosphere(subdivisions=2, radius=float(shape.sphere.radius))
     elif shape.mesh is not None:
-        path = mesh_path(shape.mesh.filename, robot.base_dir)
-        mesh = trimesh.load(str(path), force="mesh")
+        mesh = robot.mesh(shape.mesh.filename)
         if shape.mesh.scale is not None:
             mesh.apply_scale(np.asarray(shape.mesh.scale, dtype=float))
     else:
