@@ -465,3 +465,29 @@ def load_frontend_launch_file(path: Path) -> Any:
     root._read.update(c.type_name for c in root.children)
     root.check_attributes()
     return launcher.LaunchDescription(actions)
+
+
+class Parser:
+    """Reads XML and YAML launch files (``launch.frontend.Parser``)."""
+
+    @staticmethod
+    def parse_substitution(value: str) -> list[Substitution]:
+        return parse_substitution(value)
+
+    @classmethod
+    def get_file_extensions_from_parsers(cls) -> set[str]:
+        return {suffix.lstrip(".") for suffix in FORMATS}
+
+    @classmethod
+    def load(cls, file: str | Path) -> Entity:
+        """The root element of a launch file."""
+        path = Path(file)
+        kind = FORMATS.get(path.suffix)
+        if kind is None:
+            raise LaunchError(f"{path}: not an XML or YAML launch file (.xml, .yaml)")
+        return (_read_xml if kind == "xml" else _read_yaml)(path, path.read_text())
+
+    def parse_description(self, entity: Entity) -> Any:
+        """The ``LaunchDescription`` of a root element."""
+        actions = Reader().actions(entity.children)
+        return launcher.LaunchDescription(actions)

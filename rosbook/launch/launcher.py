@@ -45,6 +45,7 @@ import atexit
 import ctypes
 import importlib.util
 import json
+import logging
 import os
 import queue
 import shlex
@@ -59,11 +60,12 @@ from pathlib import Path
 from typing import IO, Any
 
 from rosbook.launch import events
-from rosbook.launch.descriptions import Parameter as ParameterDescription
 from rosbook.launch.descriptions import (
+    Executable,
     ParameterFile,
     evaluate_parameter_value,
 )
+from rosbook.launch.descriptions import Parameter as ParameterDescription
 from rosbook.launch.events import (
     BaseEventHandler,
     ExecutionComplete,
@@ -106,10 +108,41 @@ Entity = Any  # an Action or a LaunchDescription
 SomeActionsType = Any  # an entity or a list of them
 
 
+class InvalidLaunchFileError(LaunchError):
+    """A launch file that cannot be read (its format, or its content)."""
+
+
+class InvalidPythonLaunchFileError(InvalidLaunchFileError):
+    """A Python launch file without ``generate_launch_description()``."""
+
+
+class InvalidFrontendLaunchFileError(InvalidLaunchFileError):
+    """An XML or YAML launch file that cannot be read."""
+
+
+def get_logger(name: str | None = None) -> logging.Logger:
+    """A logger of the launch (``launch.user`` for messages of a launch file's own)."""
+    return logging.getLogger(name or "launch")
+
+
+def launch_config(**kwargs: Any) -> None:
+    """Upstream configures its log files here; this launcher writes no log files."""
+
+
 _entities = entities_of
 
 
-class Action:
+class LaunchDescriptionEntity:
+    """Anything a launch description holds: an action, or a description itself."""
+
+    def describe_sub_entities(self) -> list[Entity]:
+        return []
+
+    def describe_conditional_sub_entities(self) -> list[tuple[str, list[Entity]]]:
+        return []
+
+
+class Action(LaunchDescriptionEntity):
     """One step of a launch description; runs when visited if its ``condition`` holds."""
 
     def __init__(self, *, condition: Condition | None = None) -> None:
@@ -136,7 +169,7 @@ class Action:
         return []
 
 
-class LaunchDescription:
+class LaunchDescription(LaunchDescriptionEntity):
     """What ``generate_launch_description()`` returns: actions, in order."""
 
     def __init__(self, initial_entities: Iterable[Entity] | None = None) -> None:
@@ -777,6 +810,15 @@ _parameter_value = evaluate_parameter_value
 PushRosNamespace = PushROSNamespace
 
 
+class RosTimer(TimerAction):
+    """A ``TimerAction`` (ROS time is wall time for the launch itself here, as it is
+    upstream unless the launch sets ``use_sim_time``)."""
+
+
+#: launch_ros's other spelling.
+ROSTimer = RosTimer
+
+
 class SetParameter(Action):
     """Set a parameter on every node after it in its scope."""
 
@@ -1092,6 +1134,9 @@ class Launch:
         self._readers: list[threading.Thread] = []
         self._plan: list[Planned] = []
         self._timers: list[_Timer] = []
+        self._posted: queue.Queue[events.Event] = queue.Queue()
+        self._cleanups: list[Callable[[], None]] = []
+        self.ros_adapter: Any = None  # the launch's own ROS node, made when one is needed
         self._started = False
         context = LaunchContext(self.env, launch=self)
         context.launch_configurations.update(launch_arguments)
@@ -1241,12 +1286,26 @@ class Launch:
         """Print a line of the launch's own (``[INFO] [launch]: ...``) in order."""
         self._queue.put((None, line.encode(), 0))
 
+    def post_event(self, event: events.Event) -> None:
+        """Emit ``event`` from another thread: ``pump`` emits it in the launch's thread."""
+        self._posted.put(event)
+
+    def add_cleanup(self, cleanup: Callable[[], None]) -> None:
+        """Call ``cleanup`` once when the launch ends (its ROS node's shutdown, say)."""
+        self._cleanups.append(cleanup)
+
+    def _clean_up(self) -> None:
+        while self._cleanups:
+            self._cleanups.pop()()
+
     # -- running -----------------------------------------------------------------
     def pump(self, timeout: float = 0.0) -> list[str]:
         """Handle output, exits and timers for up to ``timeout`` seconds; the new lines."""
         new: list[str] = []
         deadline = time.monotonic() + timeout
         while True:
+            while not self._posted.empty():
+                self.emit_event(self._posted.get_nowait())
             self._check_exits()
             self._fire_timers()
             remaining = deadline - time.monotonic()
@@ -1347,6 +1406,7 @@ class Launch:
                         "ignoring..."
                     )
         self._drain()
+        self._clean_up()
         return 0 if all(p.returncode == 0 for p in self.processes) else 1
 
     # -- stopping ----------------------------------------------------------------
@@ -1391,6 +1451,7 @@ class Launch:
             process.popen.wait()
             self._signal(process, signal.SIGKILL)  # anything it started in its group
         self._drain()
+        self._clean_up()
         _running.discard(self)
         return {p.name: p.popen.returncode for p in self.processes}
 
@@ -1489,3 +1550,127 @@ def include(
     is ``ThisLaunchFileDir``)."""
     source = AnyLaunchDescriptionSource(os.fspath(path))
     return LaunchDescription([IncludeLaunchDescription(source, launch_arguments=launch_arguments)])
+
+
+class ExecuteLocal(ExecuteProcess):
+    """A process given as a ``launch.descriptions.Executable`` (what ``ExecuteProcess``
+    builds from its ``cmd``), with the same options."""
+
+    def __init__(self, *, process_description: Executable, **kwargs: Any) -> None:
+        description = process_description
+        super().__init__(
+            cmd=[*description.cmd, *description.arguments],
+            prefix=description.prefix,
+            name=description.name,
+            cwd=description.cwd,
+            env=None if description.env is None else dict(description.env),
+            additional_env=None
+            if description.additional_env is None
+            else dict(description.additional_env),
+            **kwargs,
+        )
+        self.process_description = description
+
+
+#: What ``LaunchDescription`` holds: an entity, or a list of them.
+SomeEntitiesType = LaunchDescriptionEntity | Iterable[LaunchDescriptionEntity]
+SomeEntitiesType_types_tuple = (LaunchDescriptionEntity, Iterable)
+
+
+def _walk(entity: Entity, depth: int, lines: list[str]) -> None:
+    pad = "    " * depth
+    if isinstance(entity, LaunchDescription):
+        lines.append(f"{pad}<launch.LaunchDescription object>")
+    else:
+        condition = "" if getattr(entity, "condition", None) is None else " (conditional)"
+        lines.append(f"{pad}{entity.describe()}{condition}")
+    for sub in entity.describe_sub_entities():
+        _walk(sub, depth + 1, lines)
+    for reason, subs in entity.describe_conditional_sub_entities():
+        lines.append(f"{pad}    on {reason}:")
+        for sub in subs:
+            if isinstance(sub, LaunchDescriptionEntity):
+                _walk(sub, depth + 2, lines)
+            else:
+                lines.append(f"{pad}        {sub!r}")
+
+
+def format_launch_description(description: LaunchDescription) -> str:
+    """The tree of a description's entities, as ``LaunchIntrospector`` shows it."""
+    lines: list[str] = []
+    _walk(description, 0, lines)
+    return "\n".join(lines)
+
+
+class LaunchIntrospector:
+    """Shows a description's entities without running it."""
+
+    def format_launch_description(self, launch_description: LaunchDescription) -> str:
+        return format_launch_description(launch_description)
+
+
+class LaunchService:
+    """Runs launch descriptions (what ``ros2 launch`` uses): include them, then ``run``."""
+
+    def __init__(
+        self,
+        *,
+        argv: Iterable[str] | None = None,
+        noninteractive: bool = False,
+        debug: bool = False,
+    ) -> None:
+        self.argv = list(argv or [])
+        self.noninteractive = noninteractive
+        self.debug = debug
+        self._descriptions: list[LaunchDescription] = []
+        self._launch: Launch | None = None
+
+    def include_launch_description(self, launch_description: LaunchDescription) -> None:
+        self._descriptions.append(launch_description)
+
+    def run(self, *, shutdown_when_idle: bool = True) -> int:
+        """Run everything included until every process exits (or Ctrl-C): 0 if all did
+        cleanly."""
+        arguments = [tuple(a.split(":=", 1)) for a in self.argv if ":=" in a]
+        self._launch = Launch(
+            LaunchDescription(self._descriptions),
+            launch_arguments=[(name, value) for name, value in arguments],
+            echo=lambda line: print(line, flush=True),
+        )
+        return self._launch.start().spin()
+
+    def shutdown(self, force_sync: bool = False) -> None:
+        if self._launch is not None:
+            self._launch.begin_shutdown("LaunchService.shutdown() called")
+
+
+def get_launch_description_from_python_launch_file(
+    python_launch_file_path: str,
+) -> LaunchDescription:
+    return load_python_launch_file(python_launch_file_path)
+
+
+def get_launch_description_from_frontend_launch_file(
+    frontend_launch_file_path: str, *, parser: Any = None
+) -> LaunchDescription:
+    return FrontendLaunchDescriptionSource(frontend_launch_file_path)._load(
+        Path(frontend_launch_file_path)
+    )
+
+
+def get_launch_description_from_any_launch_file(
+    launch_file_path: str | os.PathLike[str],
+) -> LaunchDescription:
+    return load_launch_file(launch_file_path)
+
+
+def load_python_launch_file_as_module(python_launch_file_path: str) -> Any:
+    """A Python launch file run as a module (``generate_launch_description`` on it)."""
+    path = Path(python_launch_file_path)
+    _front_ends_for_launch_files()
+    spec = importlib.util.spec_from_file_location(path.stem.replace(".", "_"), path)
+    if spec is None or spec.loader is None:
+        raise InvalidPythonLaunchFileError(f"cannot load '{path}' as a Python module")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module

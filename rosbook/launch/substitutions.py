@@ -127,6 +127,7 @@ class Substitution:
 
 
 SomeSubstitutionsType = str | Substitution | Iterable[str | Substitution]
+SomeSubstitutionsType_types_tuple = (str, Substitution, Iterable)
 
 
 def normalize_to_list_of_substitutions(value: SomeSubstitutionsType) -> list[Substitution]:
