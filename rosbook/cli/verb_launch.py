@@ -2,10 +2,12 @@
 
 The file is a Python launch file whose ``generate_launch_description()`` returns a
 ``LaunchDescription``, written as for a full install (``from launch import ...``,
-``from launch_ros.actions import Node``: here they are ``rosbook.launch``'s). ``PACKAGE
+``from launch_ros.actions import Node``: here they are ``rosbook.launch``'s), or an XML
+or YAML launch file (``*.launch.xml``, ``*.launch.yaml``). ``PACKAGE
 FILE`` finds ``FILE`` under the package's ``share/<package>/`` folder, where
 ``setup.py``'s ``data_files`` install launch files. ``name:=value`` sets a launch
-argument; ``-s`` / ``--show-args`` lists the file's arguments as upstream prints them.
+argument; ``-s`` / ``--show-args`` lists the file's arguments as upstream prints them,
+``-p`` / ``--print`` its description.
 Every process runs on its own; Ctrl-C stops them all.
 """
 
@@ -21,6 +23,7 @@ from rosbook.launch.launcher import (
     Launch,
     LaunchError,
     format_launch_arguments,
+    format_launch_description,
     include,
     load_launch_file,
 )
@@ -29,9 +32,33 @@ from rosbook.launch.launcher import (
 def add_parser(verbs: argparse._SubParsersAction) -> None:
     parser = verbs.add_parser("launch", help="Run a launch file")
     parser.add_argument(
+        "-n",
+        "--noninteractive",
+        default=not sys.stdin.isatty(),
+        action="store_true",
+        help="Run the launch system non-interactively, with no terminal associated",
+    )
+    parser.add_argument(
+        "-d",
+        "--debug",
+        default=False,
+        action="store_true",
+        help="Put the launch system in debug mode, provides more verbose output.",
+    )
+    command_group = parser.add_mutually_exclusive_group()
+    command_group.add_argument(
+        "-p",
+        "--print",
+        "--print-description",
+        default=False,
+        action="store_true",
+        help="Print the launch description to the console without launching it.",
+    )
+    command_group.add_argument(
         "-s",
         "--show-args",
         "--show-arguments",
+        default=False,
         action="store_true",
         help="Show arguments that may be given to the launch file.",
     )
@@ -90,7 +117,16 @@ def main(args: argparse.Namespace) -> int:
         elif args.launch_file_name is None:
             raise LaunchError(f"no launch file '{args.package_name}'")
         else:
-            path = find_launch_file(args.package_name, args.launch_file_name)
+            try:
+                path = find_launch_file(args.package_name, args.launch_file_name)
+            except workspace.PackageNotFoundError:  # upstream's words, quoting ament's
+                package = args.package_name
+                message = workspace.not_in_index(package)
+                print(f"Package '{package}' not found: \"{message}\"", file=sys.stderr)
+                return 1
+        if args.print:
+            print(format_launch_description(load_launch_file(path)))
+            return 0
         if args.show_args:
             print(format_launch_arguments(load_launch_file(path)))
             return 0
