@@ -18,12 +18,15 @@ launch file written for a full install runs here unchanged::
                  remappings=[('chatter', 'news')], output='screen'),
         ])
 
-Actions: ``DeclareLaunchArgument``, ``SetLaunchConfiguration``, ``IncludeLaunchDescription``
-(of ``PythonLaunchDescriptionSource``), ``GroupAction``, ``ExecuteProcess``, ``LogInfo``,
-``TimerAction`` (wall time, as upstream), ``Shutdown``, ``RegisterEventHandler`` with
-``OnProcessStart`` / ``OnProcessExit``; from ``launch_ros``: ``Node``, ``PushRosNamespace``,
-``SetParameter``. Any action takes ``condition=IfCondition(...)`` / ``UnlessCondition``.
-Substitutions and conditions are in ``rosbook.launch.substitutions``.
+Actions are upstream's, every public one of ``launch.actions`` (``DeclareLaunchArgument``,
+``IncludeLaunchDescription`` of Python, XML or YAML files, ``GroupAction``,
+``ExecuteProcess``, ``TimerAction``, ``EmitEvent``, ``OpaqueFunction``,
+``SetEnvironmentVariable``, ...) and of ``launch_ros.actions`` (``Node`` with ``respawn``,
+``PushROSNamespace``, ``SetParameter``, ``SetRemap``, ...; lifecycle nodes are in
+``rosbook.launch.lifecycle``, composable nodes in ``rosbook.launch.components``). Any
+action takes ``condition=``. Events and their handlers are in ``rosbook.launch.events``,
+substitutions and conditions in ``rosbook.launch.substitutions``, XML and YAML files in
+``rosbook.launch.frontend``.
 
 ``launch(description)`` starts every process with the ``--ros-args`` the real
 ``launch_ros`` passes (``-r __node:=``, ``-r __ns:=``, ``-p name:=value``,
@@ -34,8 +37,8 @@ then SIGTERM, then SIGKILL after ``sigterm_timeout`` / ``sigkill_timeout`` secon
 As in launch, a process without its own timeouts takes the launch configurations of
 those names (``ros2 launch FILE sigterm_timeout:=30``), else 5 s each.
 
-Not provided: XML/YAML launch files, composable nodes, lifecycle nodes, respawn, event
-handlers other than process start and exit, and log files under ``~/.ros/log``.
+Not provided: running composable nodes (C++ components; they are described, and refused
+at run time in one sentence), and log files under ``~/.ros/log``.
 """
 
 from __future__ import annotations
