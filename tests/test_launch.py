@@ -440,3 +440,54 @@ def test_ros2_run_and_its_node_stop_on_one_ctrl_c(env: dict[str, str]) -> None:
     assert 'Publishing: "hello 0"' in first, first + out
     assert proc.returncode == 0 and "Traceback" not in out, out
     assert len(children) == 1 and not alive(int(children[0]))
+
+
+def test_a_respawning_process_is_started_again_up_to_its_retries(started: list[Launch]) -> None:
+    from launch.actions import ExecuteProcess
+
+    flaky = ExecuteProcess(
+        cmd=["sh", "-c", "echo run; exit 3"],
+        name="flaky",
+        output="screen",
+        respawn=True,
+        respawn_delay=0.1,
+        respawn_max_retries=2,
+    )
+    system = Launch(LaunchDescription([flaky]), echo=None).start()
+    started.append(system)
+    assert system.wait(timeout=60.0), f"timeout: {system.output}"
+    assert [p.name for p in system.processes] == ["flaky-1", "flaky-2", "flaky-3"]
+    assert system.output.count("[flaky-3] run") == 1 and all(
+        p.returncode == 3 for p in system.processes
+    )
+
+
+def test_process_events_signal_and_stop_the_processes_they_match(started: list[Launch]) -> None:
+    from launch.actions import EmitEvent, ExecuteProcess, TimerAction
+    from launch.events import matches_action
+    from launch.events.process import ShutdownProcess, SignalProcess
+
+    first = ExecuteProcess(cmd=["sleep", "600"], name="first")
+    second = ExecuteProcess(cmd=["sleep", "600"], name="second")
+    description = LaunchDescription(
+        [
+            first,
+            second,
+            TimerAction(
+                period=0.1,
+                actions=[
+                    EmitEvent(event=ShutdownProcess(process_matcher=matches_action(first))),
+                    EmitEvent(
+                        event=SignalProcess(
+                            signal_number="SIGTERM", process_matcher=matches_action(second)
+                        )
+                    ),
+                ],
+            ),
+        ]
+    )
+    system = Launch(description, echo=None).start()
+    started.append(system)
+    assert system.wait(timeout=60.0), f"timeout: {system.output}"
+    assert system.process("first-1").returncode == -signal.SIGINT
+    assert system.process("second-2").returncode == -signal.SIGTERM

@@ -489,3 +489,22 @@ def test_a_lifecycle_node_is_driven_through_its_transitions_by_events(
             "[INFO] [launch.user]: active after activating",
         ], system.output
         assert system.ros_adapter.node.count_publishers("/lc/lc_talker/transition_event") == 1
+
+
+def test_the_large_projects_tutorial_pushes_a_namespace_and_a_remap_into_an_include(
+    env: dict[str, str], session: Session, launched: list[subprocess.Popen[str]]
+) -> None:
+    def running() -> None:
+        probe = wait_until_spinning(
+            session,
+            {("sim", "/"), ("sim", "/robot2")},
+            Probe("/chatter", String),
+            Probe("/robot2/news", String),
+        )
+        assert get_parameter(probe.node, "/sim", "rate", timeout=30.0) == 3.0
+        assert get_parameter(probe.node, "/robot2/sim", "rate", timeout=30.0) == 6.0
+
+    text = run_and_stop(
+        env, launched, ("launch_tutorial", "robots.launch.py"), "process started", running
+    )
+    assert text.count("process started") == 2, text
