@@ -48,7 +48,6 @@ import atexit
 import ctypes
 import importlib.util
 import json
-import logging
 import os
 import queue
 import shlex
@@ -121,15 +120,6 @@ class InvalidPythonLaunchFileError(InvalidLaunchFileError):
 
 class InvalidFrontendLaunchFileError(InvalidLaunchFileError):
     """An XML or YAML launch file that cannot be read."""
-
-
-def get_logger(name: str | None = None) -> logging.Logger:
-    """A logger of the launch (``launch.user`` for messages of a launch file's own)."""
-    return logging.getLogger(name or "launch")
-
-
-def launch_config(**kwargs: Any) -> None:
-    """Upstream configures its log files here; this launcher writes no log files."""
 
 
 _entities = entities_of
