@@ -491,3 +491,77 @@ def test_process_events_signal_and_stop_the_processes_they_match(started: list[L
     assert system.wait(timeout=60.0), f"timeout: {system.output}"
     assert system.process("first-1").returncode == -signal.SIGINT
     assert system.process("second-2").returncode == -signal.SIGTERM
+
+
+ECHO_LAUNCH = """\
+from launch import LaunchDescription
+from launch.actions import ExecuteProcess
+
+
+def generate_launch_description():
+    return LaunchDescription([ExecuteProcess(cmd=['echo', 'hi'])])  # output='log'
+"""
+
+
+@pytest.mark.parametrize(
+    ("options", "shown"),
+    [
+        ([], None),
+        (["-a"], "[echo-1] hi"),
+        (["-a", "--launch-prefix", "echo PREFIX"], "[echo-1] PREFIX echo hi"),
+        (["-a", "--launch-prefix", "echo PREFIX", "--launch-prefix-filter", "^ec"], "PREFIX"),
+        (["-a", "--launch-prefix", "echo PREFIX", "--launch-prefix-filter", "^x"], "] hi"),
+    ],
+)
+def test_ros2_launch_shows_all_output_and_applies_a_launch_prefix_as_upstream(
+    tmp_path: Path, options: list[str], shown: str | None
+) -> None:
+    path = tmp_path / "echo.launch.py"
+    path.write_text(ECHO_LAUNCH)
+    done = subprocess.run(
+        [sys.executable, "-m", "rosbook.cli", "launch", *options, str(path)],
+        capture_output=True,
+        text=True,
+        timeout=120,
+        env={k: v for k, v in os.environ.items() if k != "OVERRIDE_LAUNCH_PROCESS_OUTPUT"},
+    )
+    assert done.returncode == 0, done.stdout + done.stderr
+    if shown is None:
+        assert "] hi" not in done.stdout, done.stdout  # output='log': not on the screen
+    else:
+        assert shown in done.stdout, done.stdout
+
+
+def test_ros2_launch_refuses_a_prefix_filter_without_a_prefix(tmp_path: Path) -> None:
+    path = tmp_path / "echo.launch.py"
+    path.write_text(ECHO_LAUNCH)
+    done = subprocess.run(
+        [sys.executable, "-m", "rosbook.cli", "launch", "--launch-prefix-filter", "x", str(path)],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert (done.returncode, done.stderr) == (
+        1,
+        "--launch-prefix must be specified if --launch-prefix-filter is provided\n",
+    )
+
+
+def test_ros2_launch_of_an_unknown_package_says_upstreams_package_not_found(
+    tmp_path: Path,
+) -> None:
+    prefixes = [str(tmp_path / "ws" / "install" / "pkg_a"), str(tmp_path / "other")]
+    env = {**os.environ, "AMENT_PREFIX_PATH": os.pathsep.join(prefixes)}
+    done = subprocess.run(
+        [sys.executable, "-m", "rosbook.cli", "launch", "no_such_pkg", "x.launch.py"],
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    searched = [*prefixes, sys.prefix]  # AMENT_PREFIX_PATH, then the venv (the underlay)
+    assert (done.returncode, done.stdout) == (1, "")
+    assert done.stderr == (
+        "Package 'no_such_pkg' not found: "
+        f"\"package 'no_such_pkg' not found, searching: {searched}\"\n"
+    )

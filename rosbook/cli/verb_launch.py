@@ -14,6 +14,7 @@ Every process runs on its own; Ctrl-C stops them all.
 from __future__ import annotations
 
 import argparse
+import os
 import signal
 import sys
 from pathlib import Path
@@ -61,6 +62,24 @@ def add_parser(verbs: argparse._SubParsersAction) -> None:
         default=False,
         action="store_true",
         help="Show arguments that may be given to the launch file.",
+    )
+    parser.add_argument(
+        "-a",
+        "--show-all-subprocesses-output",
+        default=False,
+        action="store_true",
+        help="Show all launched subprocesses' output by overriding their output configuration "
+        "using the OVERRIDE_LAUNCH_PROCESS_OUTPUT envvar.",
+    )
+    parser.add_argument(
+        "--launch-prefix",
+        help="Prefix command, which should go before all executables. Command must be wrapped "
+        "in quotes if it contains spaces (e.g. --launch-prefix 'xterm -e gdb -ex run --args').",
+    )
+    parser.add_argument(
+        "--launch-prefix-filter",
+        help="Regex pattern for filtering which executables the --launch-prefix is applied to "
+        "by matching the executable name.",
     )
     parser.add_argument(
         "package_name", help="Name of the ROS package which contains the launch file"
@@ -124,6 +143,19 @@ def main(args: argparse.Namespace) -> int:
                 message = workspace.not_in_index(package)
                 print(f"Package '{package}' not found: \"{message}\"", file=sys.stderr)
                 return 1
+        if args.launch_prefix is None and args.launch_prefix_filter is not None:
+            print(
+                "--launch-prefix must be specified if --launch-prefix-filter is provided",
+                file=sys.stderr,
+            )
+            return 1
+        # as upstream: given last, these win over launch arguments of the same names
+        if args.launch_prefix:
+            arguments.append(f"launch-prefix:={args.launch_prefix}")
+        if args.launch_prefix_filter:
+            arguments.append(f"launch-prefix-filter:={args.launch_prefix_filter}")
+        if args.show_all_subprocesses_output:
+            os.environ["OVERRIDE_LAUNCH_PROCESS_OUTPUT"] = "both"
         if args.print:
             print(format_launch_description(load_launch_file(path)))
             return 0

@@ -50,6 +50,7 @@ import importlib.util
 import json
 import os
 import queue
+import re
 import shlex
 import signal
 import subprocess
@@ -758,6 +759,24 @@ class ExecuteProcess(Action):
     def command(self, context: LaunchContext) -> list[str]:
         return [perform_substitutions(context, part) for part in self.cmd]
 
+    def _prefix(self, cmd: list[str], context: LaunchContext) -> str:
+        """The launch prefix (``gdb -ex run --args``, ``xterm -e``): the action's own, else
+        the ``launch-prefix`` configuration (``ros2 launch --launch-prefix``) if the
+        executable's name matches ``launch-prefix-filter``, as upstream applies them."""
+        if self.prefix is not None:
+            return perform_substitutions(context, self.prefix)
+        configs = context.launch_configurations
+        prefix = str(configs.get("launch-prefix", ""))
+        prefix_filter = str(configs.get("launch-prefix-filter", ""))
+        if prefix and cmd and re.match(prefix_filter, os.path.basename(cmd[0])) is None:
+            return ""
+        return prefix
+
+    def shows_stdout(self) -> bool:
+        """Whether stdout goes to the screen: ``output`` 'screen' or 'both', unless
+        ``OVERRIDE_LAUNCH_PROCESS_OUTPUT`` says otherwise (``ros2 launch -a``)."""
+        return os.environ.get("OVERRIDE_LAUNCH_PROCESS_OUTPUT", self.output) in ("screen", "both")
+
     def respawns(self, context: LaunchContext) -> bool:
         """Whether the process is started again when it exits (``respawn``)."""
         if isinstance(self.respawn, bool):
@@ -766,8 +785,7 @@ class ExecuteProcess(Action):
 
     def execute(self, context: LaunchContext) -> None:
         cmd = self.command(context)
-        if self.prefix is not None:  # launch-prefix: `gdb -ex run --args`, `xterm -e`, ...
-            cmd = [*shlex.split(perform_substitutions(context, self.prefix)), *cmd]
+        cmd = [*shlex.split(self._prefix(cmd, context)), *cmd]
         env = dict(context.environment if self.env is None else self.env)
         env.update({k: perform_substitutions(context, v) for k, v in self.additional_env.items()})
         cwd = None if self.cwd is None else perform_substitutions(context, self.cwd)
@@ -1315,7 +1333,7 @@ class Launch:
             if process is not None:
                 io_event = ProcessStdout if fd == 1 else ProcessStderr
                 self._handle(io_event(text=raw, **process.event_details()))
-                if fd == 1 and process.node.output not in ("screen", "both"):
+                if fd == 1 and not process.node.shows_stdout():
                     continue  # output='log': to the log only, as upstream
             text = f"[{process.name}] {line}" if process is not None else line
             self.output.append(text)
