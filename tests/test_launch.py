@@ -565,3 +565,45 @@ def test_ros2_launch_of_an_unknown_package_says_upstreams_package_not_found(
         "Package 'no_such_pkg' not found: "
         f"\"package 'no_such_pkg' not found, searching: {searched}\"\n"
     )
+
+
+COMPOSITION_LAUNCH = """\
+from launch import LaunchDescription
+from launch.actions import DeclareLaunchArgument
+from launch_ros.actions import ComposableNodeContainer
+from launch_ros.descriptions import ComposableNode
+
+
+def generate_launch_description():
+    return LaunchDescription([
+        DeclareLaunchArgument('ns', default_value='demo'),
+        ComposableNodeContainer(
+            name='container', namespace='', package='rclcpp_components',
+            executable='component_container',
+            composable_node_descriptions=[
+                ComposableNode(package='composition', plugin='composition::Talker'),
+            ]),
+    ])
+"""
+
+
+def test_ros2_launch_describes_composable_nodes_and_refuses_to_run_them_in_one_line(
+    tmp_path: Path,
+) -> None:
+    path = tmp_path / "composition.launch.py"
+    path.write_text(COMPOSITION_LAUNCH)
+
+    def ros2_launch(*options: str) -> subprocess.CompletedProcess[str]:
+        command = [sys.executable, "-m", "rosbook.cli", "launch", *options, str(path)]
+        return subprocess.run(command, capture_output=True, text=True, timeout=120)
+
+    shown = ros2_launch("-s")
+    assert shown.returncode == 0 and "    'ns':" in shown.stdout, shown.stdout + shown.stderr
+    printed = ros2_launch("-p")
+    assert "ComposableNodeContainer" in printed.stdout, printed.stdout + printed.stderr
+    run = ros2_launch()
+    assert (run.returncode, run.stdout) == (1, ""), run.stdout + run.stderr
+    assert run.stderr.startswith(
+        "[ERROR] [launch]: ComposableNodeContainer 'container' needs C++ components"
+    ), run.stderr
+    assert run.stderr.count("\n") == 1 and "composition::Talker" in run.stderr

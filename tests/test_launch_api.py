@@ -15,7 +15,13 @@ from typing import Any
 
 import pytest
 
-from rosbook.launch.launcher import Launch, LaunchDescription, LaunchError, load_launch_file
+from rosbook.launch.launcher import (
+    Launch,
+    LaunchDescription,
+    LaunchError,
+    format_launch_description,
+    load_launch_file,
+)
 from rosbook.launch.substitutions import LaunchContext, parse_substitution, perform_substitutions
 
 #: The public names (``__all__``) of upstream's jazzy packages, read from
@@ -360,6 +366,8 @@ def test_composable_nodes_describe_and_refuse_to_run_in_one_sentence() -> None:
     load = LoadComposableNodes(composable_node_descriptions=nodes, target_container=container)
     description = LaunchDescription([container, load])
     assert description.describe_sub_entities() == [container, load]  # it loads and describes
+    walked = format_launch_description(description)
+    assert "ComposableNodeContainer" in walked and "LoadComposableNodes" in walked
     for action in (container, load):
         with pytest.raises(LaunchError) as refused:
             Launch(LaunchDescription([action]), env={}, echo=None)
@@ -525,3 +533,26 @@ def test_a_mistake_in_an_xml_or_yaml_launch_file_is_one_line_naming_the_element(
     with pytest.raises(LaunchError, match=message) as raised:
         load_launch_file(path)
     assert "\n" not in str(raised.value) and str(path) in str(raised.value)
+
+
+def test_a_robot_description_parameter_from_a_command_reaches_the_command_line(
+    tmp_path: Path,
+) -> None:
+    from launch.substitutions import Command, PathJoinSubstitution
+    from launch_ros.actions import Node
+    from launch_ros.parameter_descriptions import ParameterValue
+
+    urdf = tmp_path / "robot.urdf"
+    urdf.write_text('<robot name="r">\n  <link name="base"/>\n</robot>\n')
+    description = ParameterValue(
+        Command(["cat ", PathJoinSubstitution([str(tmp_path), "robot.urdf"])]), value_type=str
+    )
+    node = Node(
+        executable="/bin/true",
+        parameters=[{"robot_description": description, "publish_frequency": 20.0}],
+    )
+    cmd = node.command(LaunchContext())
+    assert cmd[cmd.index("-p") + 1] == (
+        'robot_description:="<robot name=\\"r\\">\\n  <link name=\\"base\\"/>\\n</robot>\\n"'
+    )
+    assert "publish_frequency:=20.0" in cmd
