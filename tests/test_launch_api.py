@@ -556,3 +556,20 @@ def test_a_robot_description_parameter_from_a_command_reaches_the_command_line(
         'robot_description:="<robot name=\\"r\\">\\n  <link name=\\"base\\"/>\\n</robot>\\n"'
     )
     assert "publish_frequency:=20.0" in cmd
+
+
+def test_a_shutdown_while_the_description_is_visited_starts_nothing() -> None:
+    from launch.actions import ExecuteProcess, Shutdown
+    from launch.conditions import LaunchConfigurationEquals
+
+    description = LaunchDescription(
+        [
+            Shutdown(reason="no robot", condition=LaunchConfigurationEquals("robot", None)),
+            ExecuteProcess(cmd=["sleep", "600"]),
+        ]
+    )
+    system = Launch(description, env={}, echo=None).start()
+    try:
+        assert system.processes == [] and system.shutting_down == "no robot"
+    finally:
+        system.shutdown()

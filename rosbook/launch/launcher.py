@@ -1247,8 +1247,8 @@ class Launch:
         """Start every process planned, in order, and the timers."""
         self._started = True
         _running.add(self)
-        for planned in self._plan:
-            self._start(planned)
+        for planned in self._plan if self.shutting_down is None else []:
+            self._start(planned)  # (a Shutdown while the description was visited: none)
         for timer in self._timers:
             timer.due = time.monotonic() + timer.period
         return self

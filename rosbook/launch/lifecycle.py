@@ -181,7 +181,7 @@ class LifecycleNode(Node):
     ) -> None:
         super().__init__(name=name, namespace=namespace, **kwargs)
         self.fully_qualified_name: str | None = None
-        self._requests: queue.Queue[int] = queue.Queue()
+        self._requests: queue.Queue[int | None] = queue.Queue()
 
     def execute(self, context: LaunchContext) -> None:
         name = self.node_name(context)
@@ -201,6 +201,7 @@ class LifecycleNode(Node):
             ChangeStateSrv, f"{self.fully_qualified_name}/change_state"
         )
         threading.Thread(target=self._transitions, args=(launch,), daemon=True).start()
+        launch.add_cleanup(lambda: self._requests.put(None))  # the thread ends with the launch
         launch.handlers.append(
             (
                 events.EventHandler(
@@ -214,8 +215,7 @@ class LifecycleNode(Node):
 
     def _transitions(self, launch: Any) -> None:
         """Call change_state for each requested transition, in order (a thread's work)."""
-        while True:
-            transition_id = self._requests.get()
+        while (transition_id := self._requests.get()) is not None:
             label = _TRANSITIONS[transition_id]
             if not self._client.wait_for_service(timeout_sec=SERVICE_WAIT):
                 launch.say(
