@@ -25,8 +25,8 @@ from rosbook.launch.launcher import (
 from rosbook.launch.substitutions import LaunchContext, parse_substitution, perform_substitutions
 
 #: The public names (``__all__``) of upstream's jazzy packages, read from
-#: github.com/ros2/launch and github.com/ros2/launch_ros, branch jazzy, the
-#: ``__init__.py`` of each module named here.
+#: github.com/ros2/launch (launch, launch_xml, launch_yaml) and github.com/ros2/launch_ros,
+#: branch jazzy, the ``__init__.py`` of each module named here.
 UPSTREAM_JAZZY_NAMES = {
     "launch": [
         "actions", "conditions", "descriptions", "events", "frontend", "logging",
@@ -96,6 +96,10 @@ UPSTREAM_JAZZY_NAMES = {
     "launch_ros.events": ["lifecycle", "matches_node_name"],
     "launch_ros.events.lifecycle": ["ChangeState", "matches_node_name", "StateTransition"],
     "launch_ros.event_handlers": ["OnStateTransition"],
+    "launch_xml": ["launch_description_sources", "Entity", "Parser"],
+    "launch_xml.launch_description_sources": ["XMLLaunchDescriptionSource"],
+    "launch_yaml": ["launch_description_sources", "Entity", "Parser"],
+    "launch_yaml.launch_description_sources": ["YAMLLaunchDescriptionSource"],
 }  # fmt: skip
 
 
@@ -573,3 +577,23 @@ def test_a_shutdown_while_the_description_is_visited_starts_nothing() -> None:
         assert system.processes == [] and system.shutting_down == "no robot"
     finally:
         system.shutdown()
+
+
+def test_the_formats_pages_python_file_includes_xml_and_yaml_by_their_sources(
+    tmp_path: Path,
+) -> None:
+    from launch.actions import IncludeLaunchDescription
+    from launch_xml.launch_description_sources import XMLLaunchDescriptionSource
+    from launch_yaml.launch_description_sources import YAMLLaunchDescriptionSource
+
+    (tmp_path / "a.launch.xml").write_text("<launch><log message='from xml'/></launch>")
+    (tmp_path / "a.launch.yaml").write_text("launch:\n- log: {message: from yaml}\n")
+    description = LaunchDescription(
+        [
+            IncludeLaunchDescription(XMLLaunchDescriptionSource(str(tmp_path / "a.launch.xml"))),
+            IncludeLaunchDescription(YAMLLaunchDescriptionSource(str(tmp_path / "a.launch.yaml"))),
+        ]
+    )
+    system = Launch(description, env={}, echo=None)
+    system.pump()
+    assert system.output == ["[INFO] [launch.user]: from xml", "[INFO] [launch.user]: from yaml"]

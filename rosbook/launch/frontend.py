@@ -448,9 +448,10 @@ class Reader:
         return found
 
 
-def load_frontend_launch_file(path: Path) -> Any:
-    """The ``LaunchDescription`` of an XML or YAML launch file."""
-    kind = FORMATS.get(path.suffix)
+def load_frontend_launch_file(path: Path, kind: str | None = None) -> Any:
+    """The ``LaunchDescription`` of an XML or YAML launch file (``kind`` 'xml' or 'yaml';
+    None: told by its extension)."""
+    kind = kind or FORMATS.get(path.suffix)
     if kind is None:
         raise LaunchError(f"{path}: not an XML or YAML launch file (.xml, .yaml)")
     try:

@@ -327,13 +327,34 @@ class PythonLaunchDescriptionSource(LaunchDescriptionSource):
 class FrontendLaunchDescriptionSource(LaunchDescriptionSource):
     """An XML or YAML launch file (``*.launch.xml``, ``*.launch.yaml``) to include."""
 
+    #: The format to read it as (None: told by its extension).
+    kind: str | None = None
+
     def __init__(self, launch_file_path: SomeSubstitutionsType, parser: Any = None) -> None:
         super().__init__(None, launch_file_path, "interpreted frontend launch file")
 
     def _load(self, path: Path) -> LaunchDescription:
         from rosbook.launch.frontend import load_frontend_launch_file  # it builds our actions
 
-        return load_frontend_launch_file(path)
+        return load_frontend_launch_file(path, self.kind)
+
+
+class XMLLaunchDescriptionSource(FrontendLaunchDescriptionSource):
+    """An XML launch file to include (``launch_xml.launch_description_sources``)."""
+
+    kind = "xml"
+
+    def __init__(self, launch_file_path: SomeSubstitutionsType) -> None:
+        super().__init__(launch_file_path)
+
+
+class YAMLLaunchDescriptionSource(FrontendLaunchDescriptionSource):
+    """A YAML launch file to include (``launch_yaml.launch_description_sources``)."""
+
+    kind = "yaml"
+
+    def __init__(self, launch_file_path: SomeSubstitutionsType) -> None:
+        super().__init__(launch_file_path)
 
 
 class AnyLaunchDescriptionSource(LaunchDescriptionSource):
