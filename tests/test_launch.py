@@ -607,3 +607,25 @@ def test_ros2_launch_describes_composable_nodes_and_refuses_to_run_them_in_one_l
         "[ERROR] [launch]: ComposableNodeContainer 'container' needs C++ components"
     ), run.stderr
     assert run.stderr.count("\n") == 1 and "composition::Talker" in run.stderr
+
+
+def test_ros2_launch_runs_on_shutdown_handlers_when_it_ends_idle(tmp_path: Path) -> None:
+    path = tmp_path / "idle.launch.py"
+    path.write_text(
+        "from launch import LaunchDescription\n"
+        "from launch.actions import ExecuteProcess, LogInfo, RegisterEventHandler\n"
+        "from launch.event_handlers import OnShutdown\n"
+        "from launch.substitutions import LocalSubstitution\n\n\n"
+        "def generate_launch_description():\n"
+        "    bye = LogInfo(msg=['bye: ', LocalSubstitution('event.reason')])\n"
+        "    on_shutdown = RegisterEventHandler(OnShutdown(on_shutdown=[bye]))\n"
+        "    return LaunchDescription([on_shutdown, ExecuteProcess(cmd=['true'])])\n"
+    )
+    done = subprocess.run(
+        [sys.executable, "-m", "rosbook.cli", "launch", str(path)],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert done.returncode == 0, done.stdout + done.stderr
+    assert done.stdout.splitlines()[-1] == "[INFO] [launch.user]: bye: idle", done.stdout

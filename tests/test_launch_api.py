@@ -597,3 +597,21 @@ def test_the_formats_pages_python_file_includes_xml_and_yaml_by_their_sources(
     system = Launch(description, env={}, echo=None)
     system.pump()
     assert system.output == ["[INFO] [launch.user]: from xml", "[INFO] [launch.user]: from yaml"]
+
+
+def test_a_non_forwarding_group_keeps_only_what_it_is_given(tmp_path: Path) -> None:
+    path = tmp_path / "keep.launch.xml"
+    path.write_text(
+        "<launch>\n"
+        '  <let name="a" value="1"/>\n'
+        '  <let name="b" value="2"/>\n'
+        '  <group forwarding="false">\n'
+        '    <keep name="a" value="$(var a)"/>\n'
+        "    <log message=\"a=$(var a) b=$(var b 'unset')\"/>\n"
+        "  </group>\n"
+        '  <log message="b=$(var b)"/>\n'
+        "</launch>\n"
+    )
+    system = Launch(load_launch_file(path), env={}, echo=None)
+    system.pump()
+    assert system.output == ["[INFO] [launch.user]: a=1 b=unset", "[INFO] [launch.user]: b=2"]

@@ -367,9 +367,19 @@ def _group(entity: Entity, reader: Reader) -> Any:
     forwarding = entity.flag("forwarding", True)
     if not isinstance(scoped, bool) or not isinstance(forwarding, bool):
         raise entity.error("'scoped' and 'forwarding' must be true or false")
-    actions = reader.actions([c for c in entity.children if c.type_name not in ("keep",)])
+    kept = {}  # <keep name=.. value=..>: configurations a non-forwarding group starts with
+    for keep in entity.children_named("keep"):
+        kept[str(keep.get("name", optional=False))] = keep.subs("value", optional=False)
+        keep.check_attributes()
+    actions = reader.actions([c for c in entity.children if c.type_name != "keep"])
     entity._read.update(c.type_name for c in entity.children)
-    return launcher.GroupAction(actions, scoped=scoped, forwarding=forwarding, **_condition(entity))
+    return launcher.GroupAction(
+        actions,
+        scoped=scoped,
+        forwarding=forwarding,
+        launch_configurations=kept or None,
+        **_condition(entity),
+    )
 
 
 def _timer(entity: Entity, reader: Reader) -> Any:

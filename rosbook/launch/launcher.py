@@ -429,10 +429,13 @@ class GroupAction(Action):
 
     def execute(self, context: LaunchContext) -> list[Entity] | None:
         inner = context.scoped() if self.scoped else context
+        given = {  # worked out where the group is, before a non-forwarding one clears
+            perform_substitutions(context, name): perform_substitutions(context, value)
+            for name, value in self.launch_configurations.items()
+        }
         if self.scoped and not self.forwarding:
             inner.launch_configurations.clear()
-        for name, value in self.launch_configurations.items():
-            SetLaunchConfiguration(name, value).execute(inner)
+        inner.launch_configurations.update(given)
         if not self.scoped:
             return self.actions
         context.launch.visit(self.actions, inner)
@@ -1426,6 +1429,9 @@ class Launch:
         """Run in the foreground until every process exits or Ctrl-C; the exit status."""
         try:
             self.wait()
+            if self.shutting_down is None:  # idle: OnShutdown handlers still run, as upstream
+                self.shutting_down = "idle"
+                self._handle(events.Shutdown(reason="idle"))
         except KeyboardInterrupt:
             self.say("[WARNING] [launch]: user interrupted with ctrl-c (SIGINT)")
             while True:
@@ -1439,6 +1445,7 @@ class Launch:
                     )
         self._drain()
         self._clean_up()
+        _running.discard(self)  # ended: nothing to stop at exit
         return 0 if all(p.returncode == 0 for p in self.processes) else 1
 
     # -- stopping ----------------------------------------------------------------
