@@ -615,3 +615,21 @@ def test_a_non_forwarding_group_keeps_only_what_it_is_given(tmp_path: Path) -> N
     system = Launch(load_launch_file(path), env={}, echo=None)
     system.pump()
     assert system.output == ["[INFO] [launch.user]: a=1 b=unset", "[INFO] [launch.user]: b=2"]
+
+
+def test_an_opaque_function_registers_handlers_and_emits_events_through_its_context() -> None:
+    from launch.actions import LogInfo, OpaqueFunction
+    from launch.event_handlers import OnShutdown
+    from launch.events import Shutdown
+
+    def wire(context: LaunchContext) -> None:
+        assert not context.is_shutdown
+        context.register_event_handler(OnShutdown(on_shutdown=[LogInfo(msg="handled")]))
+        context.emit_event_sync(Shutdown(reason="from a function"))
+
+    system = Launch(LaunchDescription([OpaqueFunction(function=wire)]), env={}, echo=None)
+    system.pump()
+    assert system.output == [
+        "[INFO] [launch]: shutting down: from a function",
+        "[INFO] [launch.user]: handled",
+    ]

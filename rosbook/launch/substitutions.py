@@ -115,6 +115,23 @@ class LaunchContext:
     def perform_substitution(self, substitution: Substitution) -> str:
         return substitution.perform(self)
 
+    @property
+    def is_shutdown(self) -> bool:
+        """Whether the launch is shutting down."""
+        return self.launch is not None and self.launch.shutting_down is not None
+
+    def register_event_handler(self, event_handler: Any) -> None:
+        """Answer events with ``event_handler`` from now on (in this context)."""
+        self.launch.handlers.append((event_handler, self))
+
+    def unregister_event_handler(self, event_handler: Any) -> None:
+        handlers = self.launch.handlers
+        handlers[:] = [(h, c) for h, c in handlers if h is not event_handler]
+
+    def emit_event_sync(self, event: Any) -> None:
+        """Emit ``event`` once the action being visited is done (from any thread)."""
+        self.launch.post_event(event)
+
 
 class Substitution:
     """Text worked out when the launch runs."""
