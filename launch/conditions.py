@@ -3,7 +3,17 @@
 from rosbook.launch.substitutions import (
     IfCondition,
     InvalidConditionExpressionError,
+    LaunchConfigurationEquals,
+    LaunchConfigurationNotEquals,
     UnlessCondition,
+    evaluate_condition_expression,
 )
 
-__all__ = ["IfCondition", "InvalidConditionExpressionError", "UnlessCondition"]
+__all__ = [
+    "IfCondition",
+    "InvalidConditionExpressionError",
+    "LaunchConfigurationEquals",
+    "LaunchConfigurationNotEquals",
+    "UnlessCondition",
+    "evaluate_condition_expression",
+]

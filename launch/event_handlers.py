@@ -1,5 +1,23 @@
-"""``launch.event_handlers``: actions when a process starts or exits."""
+"""``launch.event_handlers``: actions when an event happens (see ``rosbook.launch.events``)."""
 
-from rosbook.launch.launcher import OnProcessExit, OnProcessStart
+from rosbook.launch.events import (
+    OnActionEventBase,
+    OnExecutionComplete,
+    OnIncludeLaunchDescription,
+    OnProcessExit,
+    OnProcessIO,
+    OnProcessStart,
+    OnShutdown,
+    event_named,
+)
 
-__all__ = ["OnProcessExit", "OnProcessStart"]
+__all__ = [
+    "OnActionEventBase",
+    "OnExecutionComplete",
+    "OnIncludeLaunchDescription",
+    "OnProcessExit",
+    "OnProcessIO",
+    "OnProcessStart",
+    "OnShutdown",
+    "event_named",
+]

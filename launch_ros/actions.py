@@ -1,5 +1,33 @@
-"""``launch_ros.actions`` (see ``rosbook.launch.launcher``)."""
+"""``launch_ros.actions`` (see ``rosbook.launch.launcher``, ``lifecycle``, ``components``)."""
 
-from rosbook.launch.launcher import Node, PushRosNamespace, SetParameter
+from rosbook.launch.components import ComposableNodeContainer, LoadComposableNodes
+from rosbook.launch.launcher import (
+    Node,
+    PushROSNamespace,
+    PushRosNamespace,
+    ROSTimer,
+    RosTimer,
+    SetParameter,
+    SetParametersFromFile,
+    SetRemap,
+    SetROSLogDir,
+    SetUseSimTime,
+)
+from rosbook.launch.lifecycle import LifecycleNode, LifecycleTransition
 
-__all__ = ["Node", "PushRosNamespace", "SetParameter"]
+__all__ = [
+    "ComposableNodeContainer",
+    "LifecycleNode",
+    "LifecycleTransition",
+    "LoadComposableNodes",
+    "Node",
+    "PushROSNamespace",
+    "PushRosNamespace",
+    "ROSTimer",
+    "RosTimer",
+    "SetParameter",
+    "SetParametersFromFile",
+    "SetROSLogDir",
+    "SetRemap",
+    "SetUseSimTime",
+]

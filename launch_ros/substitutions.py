@@ -1,5 +1,17 @@
 """``launch_ros.substitutions`` (see ``rosbook.launch.substitutions``)."""
 
-from rosbook.launch.substitutions import FindPackageShare
+from rosbook.launch.substitutions import (
+    ExecutableInPackage,
+    FindPackage,
+    FindPackagePrefix,
+    FindPackageShare,
+    Parameter,
+)
 
-__all__ = ["FindPackageShare"]
+__all__ = [
+    "ExecutableInPackage",
+    "FindPackage",
+    "FindPackagePrefix",
+    "FindPackageShare",
+    "Parameter",
+]

@@ -440,3 +440,192 @@ def test_ros2_run_and_its_node_stop_on_one_ctrl_c(env: dict[str, str]) -> None:
     assert 'Publishing: "hello 0"' in first, first + out
     assert proc.returncode == 0 and "Traceback" not in out, out
     assert len(children) == 1 and not alive(int(children[0]))
+
+
+def test_a_respawning_process_is_started_again_up_to_its_retries(started: list[Launch]) -> None:
+    from launch.actions import ExecuteProcess
+
+    flaky = ExecuteProcess(
+        cmd=["sh", "-c", "echo run; exit 3"],
+        name="flaky",
+        output="screen",
+        respawn=True,
+        respawn_delay=0.1,
+        respawn_max_retries=2,
+    )
+    system = Launch(LaunchDescription([flaky]), echo=None).start()
+    started.append(system)
+    assert system.wait(timeout=60.0), f"timeout: {system.output}"
+    assert [p.name for p in system.processes] == ["flaky-1", "flaky-2", "flaky-3"]
+    assert system.output.count("[flaky-3] run") == 1 and all(
+        p.returncode == 3 for p in system.processes
+    )
+
+
+def test_process_events_signal_and_stop_the_processes_they_match(started: list[Launch]) -> None:
+    from launch.actions import EmitEvent, ExecuteProcess, TimerAction
+    from launch.events import matches_action
+    from launch.events.process import ShutdownProcess, SignalProcess
+
+    first = ExecuteProcess(cmd=["sleep", "600"], name="first")
+    second = ExecuteProcess(cmd=["sleep", "600"], name="second")
+    description = LaunchDescription(
+        [
+            first,
+            second,
+            TimerAction(
+                period=0.1,
+                actions=[
+                    EmitEvent(event=ShutdownProcess(process_matcher=matches_action(first))),
+                    EmitEvent(
+                        event=SignalProcess(
+                            signal_number="SIGTERM", process_matcher=matches_action(second)
+                        )
+                    ),
+                ],
+            ),
+        ]
+    )
+    system = Launch(description, echo=None).start()
+    started.append(system)
+    assert system.wait(timeout=60.0), f"timeout: {system.output}"
+    assert system.process("first-1").returncode == -signal.SIGINT
+    assert system.process("second-2").returncode == -signal.SIGTERM
+
+
+ECHO_LAUNCH = """\
+from launch import LaunchDescription
+from launch.actions import ExecuteProcess
+
+
+def generate_launch_description():
+    return LaunchDescription([ExecuteProcess(cmd=['echo', 'hi'])])  # output='log'
+"""
+
+
+@pytest.mark.parametrize(
+    ("options", "shown"),
+    [
+        ([], None),
+        (["-a"], "[echo-1] hi"),
+        (["-a", "--launch-prefix", "echo PREFIX"], "[echo-1] PREFIX echo hi"),
+        (["-a", "--launch-prefix", "echo PREFIX", "--launch-prefix-filter", "^ec"], "PREFIX"),
+        (["-a", "--launch-prefix", "echo PREFIX", "--launch-prefix-filter", "^x"], "] hi"),
+    ],
+)
+def test_ros2_launch_shows_all_output_and_applies_a_launch_prefix_as_upstream(
+    tmp_path: Path, options: list[str], shown: str | None
+) -> None:
+    path = tmp_path / "echo.launch.py"
+    path.write_text(ECHO_LAUNCH)
+    done = subprocess.run(
+        [sys.executable, "-m", "rosbook.cli", "launch", *options, str(path)],
+        capture_output=True,
+        text=True,
+        timeout=120,
+        env={k: v for k, v in os.environ.items() if k != "OVERRIDE_LAUNCH_PROCESS_OUTPUT"},
+    )
+    assert done.returncode == 0, done.stdout + done.stderr
+    if shown is None:
+        assert "] hi" not in done.stdout, done.stdout  # output='log': not on the screen
+    else:
+        assert shown in done.stdout, done.stdout
+
+
+def test_ros2_launch_refuses_a_prefix_filter_without_a_prefix(tmp_path: Path) -> None:
+    path = tmp_path / "echo.launch.py"
+    path.write_text(ECHO_LAUNCH)
+    done = subprocess.run(
+        [sys.executable, "-m", "rosbook.cli", "launch", "--launch-prefix-filter", "x", str(path)],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert (done.returncode, done.stderr) == (
+        1,
+        "--launch-prefix must be specified if --launch-prefix-filter is provided\n",
+    )
+
+
+def test_ros2_launch_of_an_unknown_package_says_upstreams_package_not_found(
+    tmp_path: Path,
+) -> None:
+    prefixes = [str(tmp_path / "ws" / "install" / "pkg_a"), str(tmp_path / "other")]
+    env = {**os.environ, "AMENT_PREFIX_PATH": os.pathsep.join(prefixes)}
+    done = subprocess.run(
+        [sys.executable, "-m", "rosbook.cli", "launch", "no_such_pkg", "x.launch.py"],
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    searched = [*prefixes, sys.prefix]  # AMENT_PREFIX_PATH, then the venv (the underlay)
+    assert (done.returncode, done.stdout) == (1, "")
+    assert done.stderr == (
+        "Package 'no_such_pkg' not found: "
+        f"\"package 'no_such_pkg' not found, searching: {searched}\"\n"
+    )
+
+
+COMPOSITION_LAUNCH = """\
+from launch import LaunchDescription
+from launch.actions import DeclareLaunchArgument
+from launch_ros.actions import ComposableNodeContainer
+from launch_ros.descriptions import ComposableNode
+
+
+def generate_launch_description():
+    return LaunchDescription([
+        DeclareLaunchArgument('ns', default_value='demo'),
+        ComposableNodeContainer(
+            name='container', namespace='', package='rclcpp_components',
+            executable='component_container',
+            composable_node_descriptions=[
+                ComposableNode(package='composition', plugin='composition::Talker'),
+            ]),
+    ])
+"""
+
+
+def test_ros2_launch_describes_composable_nodes_and_refuses_to_run_them_in_one_line(
+    tmp_path: Path,
+) -> None:
+    path = tmp_path / "composition.launch.py"
+    path.write_text(COMPOSITION_LAUNCH)
+
+    def ros2_launch(*options: str) -> subprocess.CompletedProcess[str]:
+        command = [sys.executable, "-m", "rosbook.cli", "launch", *options, str(path)]
+        return subprocess.run(command, capture_output=True, text=True, timeout=120)
+
+    shown = ros2_launch("-s")
+    assert shown.returncode == 0 and "    'ns':" in shown.stdout, shown.stdout + shown.stderr
+    printed = ros2_launch("-p")
+    assert "ComposableNodeContainer" in printed.stdout, printed.stdout + printed.stderr
+    run = ros2_launch()
+    assert (run.returncode, run.stdout) == (1, ""), run.stdout + run.stderr
+    assert run.stderr.startswith(
+        "[ERROR] [launch]: ComposableNodeContainer 'container' needs C++ components"
+    ), run.stderr
+    assert run.stderr.count("\n") == 1 and "composition::Talker" in run.stderr
+
+
+def test_ros2_launch_runs_on_shutdown_handlers_when_it_ends_idle(tmp_path: Path) -> None:
+    path = tmp_path / "idle.launch.py"
+    path.write_text(
+        "from launch import LaunchDescription\n"
+        "from launch.actions import ExecuteProcess, LogInfo, RegisterEventHandler\n"
+        "from launch.event_handlers import OnShutdown\n"
+        "from launch.substitutions import LocalSubstitution\n\n\n"
+        "def generate_launch_description():\n"
+        "    bye = LogInfo(msg=['bye: ', LocalSubstitution('event.reason')])\n"
+        "    on_shutdown = RegisterEventHandler(OnShutdown(on_shutdown=[bye]))\n"
+        "    return LaunchDescription([on_shutdown, ExecuteProcess(cmd=['true'])])\n"
+    )
+    done = subprocess.run(
+        [sys.executable, "-m", "rosbook.cli", "launch", str(path)],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert done.returncode == 0, done.stdout + done.stderr
+    assert done.stdout.splitlines()[-1] == "[INFO] [launch.user]: bye: idle", done.stdout

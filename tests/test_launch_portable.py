@@ -308,7 +308,7 @@ def test_process_events_timers_and_shutdown_run_their_actions(env: dict[str, str
         [
             RegisterEventHandler(
                 OnProcessStart(
-                    target_action=first, on_start=lambda event, _: LogInfo(msg=event.name)
+                    target_action=first, on_start=lambda event, _: LogInfo(msg=event.process_name)
                 )
             ),
             RegisterEventHandler(
@@ -340,3 +340,171 @@ def test_process_events_timers_and_shutdown_run_their_actions(env: dict[str, str
     assert system.process("sleeper-2").returncode == -signal.SIGINT
     with pytest.raises(LaunchError, match="ThisLaunchFileDir used outside of a launch file"):
         Launch(LaunchDescription([LogInfo(msg=ThisLaunchFileDir())]), env=env)
+
+
+def test_the_event_handlers_tutorial_answers_each_event_and_shuts_down_when_its_node_exits(
+    env: dict[str, str], session: Session, launched: list[subprocess.Popen[str]]
+) -> None:
+    proc = start_launch(
+        {**env, "USER": "ada"},
+        "launch_tutorial",
+        "example_event_handlers.launch.py",
+        "use_provided_rate:=True",
+    )
+    launched.append(proc)
+    # the conditioned `param set` runs last (2 s after the rate request completed)
+    lines = read_until(proc, "[INFO] [ros2-4]: process has finished cleanly", [], guard=120)
+    text = "".join(lines)
+    assert "[INFO] [ros2-4]: process has finished cleanly" in text, f"timeout: {text}"
+    out = [line.rstrip("\n") for line in lines]
+    said = [line for line in out if line.startswith("[INFO] [launch.user]: ")]
+    assert said[0] == "[INFO] [launch.user]: Talker started, asking its rate", text
+    answers = [s for s in said if s.startswith('[INFO] [launch.user]: Rate request says "')]
+    assert any("double_value=1.0" in a for a in answers), text  # OnProcessIO, per line
+    finished = said.index("[INFO] [launch.user]: Rate request finished")
+    assert finished > said.index(answers[-1]), text  # the process completed after its output
+    # the two `param set`s (3.0 at once, the conditioned new_rate 5.0 after the timer):
+    # the parameter holds whichever finished last
+    last = max(
+        ("ros2-3", 3.0),
+        ("ros2-4", 5.0),
+        key=lambda p: text.index(f"[{p[0]}]: process has finished"),
+    )
+    probe = Probe("/talker1/chatter", String)
+    wait_until_spinning(session, {("sim", "/talker1")}, probe)
+    assert get_parameter(probe.node, "/talker1/sim", "rate", timeout=30.0) == last[1]
+    # "closing the window": the node exits, and the launch shuts down by itself
+    pid = int(text.split("[INFO] [talker-1]: process started with pid [")[1].split("]")[0])
+    os.killpg(pid, signal.SIGINT)
+    rest = "".join(read_until(proc, None, lines, guard=60)[len(out) :])
+    assert proc.wait() == 0, rest
+    assert "[INFO] [launch.user]: ada closed the talker" in rest, rest
+    assert "[INFO] [launch]: shutting down: Window closed" in rest, rest
+    assert "[INFO] [launch.user]: Launch was asked to shutdown: Window closed" in rest, rest
+
+
+@pytest.mark.parametrize(
+    "launch_file", ["example_formats.launch.xml", "example_formats.launch.yaml"]
+)
+def test_the_launch_file_formats_pages_xml_and_yaml_run_as_python_ones_do(
+    env: dict[str, str],
+    session: Session,
+    launched: list[subprocess.Popen[str]],
+    launch_file: str,
+) -> None:
+    def running() -> None:
+        probe = wait_until_spinning(
+            session,
+            {
+                ("talker", "/chatter/py/ns"),
+                ("talker", "/chatter/xml/ns"),
+                ("talker", "/chatter/yaml/ns"),
+                ("sim", "/turtlesim2"),
+                ("mimic", "/"),
+            },
+            Probe("/turtlesim2/chatter", String),
+            Probe("/chatter/py/ns/chatter", String),
+            Probe("/chatter/xml/ns/chatter", String),
+            Probe("/chatter/yaml/ns/chatter", String),
+        )
+        assert get_parameter(probe.node, "/turtlesim2/sim", "rate", timeout=30.0) == 5.0
+        subscribed = probe.node.get_subscriber_names_and_types_by_node("mimic", "/")
+        assert ("/turtlesim2/chatter", ["std_msgs/msg/String"]) in subscribed  # remapped
+
+    text = run_and_stop(
+        env, launched, ("launch_tutorial", launch_file, "rate:=5.0"), "process started", running
+    )
+    assert text.count("process started") == 5, text
+
+
+def test_a_lifecycle_node_is_driven_through_its_transitions_by_events(
+    env: dict[str, str], session: Session
+) -> None:
+    from lifecycle_msgs.msg import Transition
+
+    from launch import LaunchDescription
+    from launch.actions import EmitEvent, LogInfo, RegisterEventHandler
+    from launch.event_handlers import OnProcessStart
+    from launch.events import matches_action
+    from launch.substitutions import LocalSubstitution
+    from launch_ros.actions import LifecycleNode
+    from launch_ros.event_handlers import OnStateTransition
+    from launch_ros.events.lifecycle import ChangeState
+
+    talker = LifecycleNode(
+        executable=sys.executable,
+        arguments=[str(TUTORIAL / "scripts" / "lifecycle_talker.py")],
+        name="lc_talker",
+        namespace="lc",
+        output="screen",
+    )
+
+    def change(transition: int) -> EmitEvent:
+        return EmitEvent(
+            event=ChangeState(
+                lifecycle_node_matcher=matches_action(talker), transition_id=transition
+            )
+        )
+
+    description = LaunchDescription(
+        [
+            RegisterEventHandler(
+                OnProcessStart(
+                    target_action=talker, on_start=[change(Transition.TRANSITION_CONFIGURE)]
+                )
+            ),
+            RegisterEventHandler(
+                OnStateTransition(
+                    target_lifecycle_node=talker,
+                    goal_state="inactive",
+                    entities=[LogInfo(msg="inactive"), change(Transition.TRANSITION_ACTIVATE)],
+                )
+            ),
+            RegisterEventHandler(
+                OnStateTransition(
+                    target_lifecycle_node=talker,
+                    start_state="activating",
+                    goal_state="active",
+                    entities=[
+                        LogInfo(msg=["active after ", LocalSubstitution("event.start_state")])
+                    ],
+                )
+            ),
+            talker,
+        ]
+    )
+    probe = Probe("/lc/chatter", String)
+    with Launch(description, env=env, echo=None).start() as system:
+
+        def said() -> list[str]:
+            return [line for line in system.output if "[launch.user]" in line]
+
+        def active_and_heard() -> bool:
+            system.pump()
+            return bool(probe.received.messages) and len(said()) == 2
+
+        assert session.spin_until(active_and_heard, timeout=90.0), f"timeout: {system.output}"
+        assert said() == [
+            "[INFO] [launch.user]: inactive",
+            "[INFO] [launch.user]: active after activating",
+        ], system.output
+        assert system.ros_adapter.node.count_publishers("/lc/lc_talker/transition_event") == 1
+
+
+def test_the_large_projects_tutorial_pushes_a_namespace_and_a_remap_into_an_include(
+    env: dict[str, str], session: Session, launched: list[subprocess.Popen[str]]
+) -> None:
+    def running() -> None:
+        probe = wait_until_spinning(
+            session,
+            {("sim", "/"), ("sim", "/robot2")},
+            Probe("/chatter", String),
+            Probe("/robot2/news", String),
+        )
+        assert get_parameter(probe.node, "/sim", "rate", timeout=30.0) == 3.0
+        assert get_parameter(probe.node, "/robot2/sim", "rate", timeout=30.0) == 6.0
+
+    text = run_and_stop(
+        env, launched, ("launch_tutorial", "robots.launch.py"), "process started", running
+    )
+    assert text.count("process started") == 2, text

@@ -2,16 +2,19 @@
 
 The file is a Python launch file whose ``generate_launch_description()`` returns a
 ``LaunchDescription``, written as for a full install (``from launch import ...``,
-``from launch_ros.actions import Node``: here they are ``rosbook.launch``'s). ``PACKAGE
+``from launch_ros.actions import Node``: here they are ``rosbook.launch``'s), or an XML
+or YAML launch file (``*.launch.xml``, ``*.launch.yaml``). ``PACKAGE
 FILE`` finds ``FILE`` under the package's ``share/<package>/`` folder, where
 ``setup.py``'s ``data_files`` install launch files. ``name:=value`` sets a launch
-argument; ``-s`` / ``--show-args`` lists the file's arguments as upstream prints them.
+argument; ``-s`` / ``--show-args`` lists the file's arguments as upstream prints them,
+``-p`` / ``--print`` its description.
 Every process runs on its own; Ctrl-C stops them all.
 """
 
 from __future__ import annotations
 
 import argparse
+import os
 import signal
 import sys
 from pathlib import Path
@@ -21,6 +24,7 @@ from rosbook.launch.launcher import (
     Launch,
     LaunchError,
     format_launch_arguments,
+    format_launch_description,
     include,
     load_launch_file,
 )
@@ -29,11 +33,53 @@ from rosbook.launch.launcher import (
 def add_parser(verbs: argparse._SubParsersAction) -> None:
     parser = verbs.add_parser("launch", help="Run a launch file")
     parser.add_argument(
+        "-n",
+        "--noninteractive",
+        default=not sys.stdin.isatty(),
+        action="store_true",
+        help="Run the launch system non-interactively, with no terminal associated",
+    )
+    parser.add_argument(
+        "-d",
+        "--debug",
+        default=False,
+        action="store_true",
+        help="Put the launch system in debug mode, provides more verbose output.",
+    )
+    command_group = parser.add_mutually_exclusive_group()
+    command_group.add_argument(
+        "-p",
+        "--print",
+        "--print-description",
+        default=False,
+        action="store_true",
+        help="Print the launch description to the console without launching it.",
+    )
+    command_group.add_argument(
         "-s",
         "--show-args",
         "--show-arguments",
+        default=False,
         action="store_true",
         help="Show arguments that may be given to the launch file.",
+    )
+    parser.add_argument(
+        "-a",
+        "--show-all-subprocesses-output",
+        default=False,
+        action="store_true",
+        help="Show all launched subprocesses' output by overriding their output configuration "
+        "using the OVERRIDE_LAUNCH_PROCESS_OUTPUT envvar.",
+    )
+    parser.add_argument(
+        "--launch-prefix",
+        help="Prefix command, which should go before all executables. Command must be wrapped "
+        "in quotes if it contains spaces (e.g. --launch-prefix 'xterm -e gdb -ex run --args').",
+    )
+    parser.add_argument(
+        "--launch-prefix-filter",
+        help="Regex pattern for filtering which executables the --launch-prefix is applied to "
+        "by matching the executable name.",
     )
     parser.add_argument(
         "package_name", help="Name of the ROS package which contains the launch file"
@@ -90,7 +136,29 @@ def main(args: argparse.Namespace) -> int:
         elif args.launch_file_name is None:
             raise LaunchError(f"no launch file '{args.package_name}'")
         else:
-            path = find_launch_file(args.package_name, args.launch_file_name)
+            try:
+                path = find_launch_file(args.package_name, args.launch_file_name)
+            except workspace.PackageNotFoundError:  # upstream's words, quoting ament's
+                package = args.package_name
+                message = workspace.not_in_index(package)
+                print(f"Package '{package}' not found: \"{message}\"", file=sys.stderr)
+                return 1
+        if args.launch_prefix is None and args.launch_prefix_filter is not None:
+            print(
+                "--launch-prefix must be specified if --launch-prefix-filter is provided",
+                file=sys.stderr,
+            )
+            return 1
+        # as upstream: given last, these win over launch arguments of the same names
+        if args.launch_prefix:
+            arguments.append(f"launch-prefix:={args.launch_prefix}")
+        if args.launch_prefix_filter:
+            arguments.append(f"launch-prefix-filter:={args.launch_prefix_filter}")
+        if args.show_all_subprocesses_output:
+            os.environ["OVERRIDE_LAUNCH_PROCESS_OUTPUT"] = "both"
+        if args.print:
+            print(format_launch_description(load_launch_file(path)))
+            return 0
         if args.show_args:
             print(format_launch_arguments(load_launch_file(path)))
             return 0

@@ -18,12 +18,15 @@ launch file written for a full install runs here unchanged::
                  remappings=[('chatter', 'news')], output='screen'),
         ])
 
-Actions: ``DeclareLaunchArgument``, ``SetLaunchConfiguration``, ``IncludeLaunchDescription``
-(of ``PythonLaunchDescriptionSource``), ``GroupAction``, ``ExecuteProcess``, ``LogInfo``,
-``TimerAction`` (wall time, as upstream), ``Shutdown``, ``RegisterEventHandler`` with
-``OnProcessStart`` / ``OnProcessExit``; from ``launch_ros``: ``Node``, ``PushRosNamespace``,
-``SetParameter``. Any action takes ``condition=IfCondition(...)`` / ``UnlessCondition``.
-Substitutions and conditions are in ``rosbook.launch.substitutions``.
+Actions are upstream's, every public one of ``launch.actions`` (``DeclareLaunchArgument``,
+``IncludeLaunchDescription`` of Python, XML or YAML files, ``GroupAction``,
+``ExecuteProcess``, ``TimerAction``, ``EmitEvent``, ``OpaqueFunction``,
+``SetEnvironmentVariable``, ...) and of ``launch_ros.actions`` (``Node`` with ``respawn``,
+``PushROSNamespace``, ``SetParameter``, ``SetRemap``, ...; lifecycle nodes are in
+``rosbook.launch.lifecycle``, composable nodes in ``rosbook.launch.components``). Any
+action takes ``condition=``. Events and their handlers are in ``rosbook.launch.events``,
+substitutions and conditions in ``rosbook.launch.substitutions``, XML and YAML files in
+``rosbook.launch.frontend``.
 
 ``launch(description)`` starts every process with the ``--ros-args`` the real
 ``launch_ros`` passes (``-r __node:=``, ``-r __ns:=``, ``-p name:=value``,
@@ -34,18 +37,21 @@ then SIGTERM, then SIGKILL after ``sigterm_timeout`` / ``sigkill_timeout`` secon
 As in launch, a process without its own timeouts takes the launch configurations of
 those names (``ros2 launch FILE sigterm_timeout:=30``), else 5 s each.
 
-Not provided: XML/YAML launch files, composable nodes, lifecycle nodes, respawn, event
-handlers other than process start and exit, and log files under ``~/.ros/log``.
+Not provided: running composable nodes (C++ components; they are described, and refused
+at run time in one sentence), and log files under ``~/.ros/log``.
 """
 
 from __future__ import annotations
 
+import asyncio
 import atexit
 import ctypes
 import importlib.util
 import json
 import os
 import queue
+import re
+import shlex
 import signal
 import subprocess
 import sys
@@ -56,16 +62,30 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import IO, Any
 
-import yaml
-
+from rosbook.launch import events
+from rosbook.launch.descriptions import (
+    Executable,
+    ParameterFile,
+    evaluate_parameter_value,
+)
+from rosbook.launch.descriptions import Parameter as ParameterDescription
+from rosbook.launch.events import (
+    BaseEventHandler,
+    ExecutionComplete,
+    ProcessExited,
+    ProcessStarted,
+    ProcessStderr,
+    ProcessStdout,
+    entities_of,
+)
 from rosbook.launch.substitutions import (
     Condition,
     LaunchContext,
     LaunchError,
+    LaunchLogDir,
     SomeSubstitutionsType,
     Substitution,
     SubstitutionFailure,
-    is_substitution,
     normalize_to_list_of_substitutions,
     perform_substitutions,
 )
@@ -91,17 +111,42 @@ Entity = Any  # an Action or a LaunchDescription
 SomeActionsType = Any  # an entity or a list of them
 
 
-def _entities(value: SomeActionsType) -> list[Entity]:
-    if value is None:
+class InvalidLaunchFileError(LaunchError):
+    """A launch file that cannot be read (its format, or its content)."""
+
+
+class InvalidPythonLaunchFileError(InvalidLaunchFileError):
+    """A Python launch file without ``generate_launch_description()``."""
+
+
+class InvalidFrontendLaunchFileError(InvalidLaunchFileError):
+    """An XML or YAML launch file that cannot be read."""
+
+
+_entities = entities_of
+
+
+class LaunchDescriptionEntity:
+    """Anything a launch description holds: an action, or a description itself."""
+
+    def describe_sub_entities(self) -> list[Entity]:
         return []
-    return list(value) if isinstance(value, (list, tuple)) else [value]
+
+    def describe_conditional_sub_entities(self) -> list[tuple[str, list[Entity]]]:
+        return []
 
 
-class Action:
+class Action(LaunchDescriptionEntity):
     """One step of a launch description; runs when visited if its ``condition`` holds."""
 
     def __init__(self, *, condition: Condition | None = None) -> None:
         self.condition = condition
+
+    def get_condition(self) -> Condition | None:
+        return self.condition
+
+    def describe(self) -> str:
+        return f"{type(self).__name__}"
 
     def visit(self, context: LaunchContext) -> list[Entity] | None:
         if self.condition is None or self.condition.evaluate(context):
@@ -118,7 +163,7 @@ class Action:
         return []
 
 
-class LaunchDescription:
+class LaunchDescription(LaunchDescriptionEntity):
     """What ``generate_launch_description()`` returns: actions, in order."""
 
     def __init__(self, initial_entities: Iterable[Entity] | None = None) -> None:
@@ -238,17 +283,29 @@ class SetLaunchConfiguration(Action):
         context.launch_configurations[name] = perform_substitutions(context, self.value)
 
 
-class PythonLaunchDescriptionSource:
-    """A Python launch file (``*.launch.py``) to include."""
+class LaunchDescriptionSource:
+    """A launch file to include, its path given as substitutions."""
 
-    def __init__(self, launch_file_path: SomeSubstitutionsType) -> None:
-        self.location = normalize_to_list_of_substitutions(launch_file_path)
+    def __init__(
+        self,
+        launch_description: LaunchDescription | None = None,
+        location: SomeSubstitutionsType = "<string>",
+        method: str = "unspecified mechanism from a script",
+    ) -> None:
+        self._description = launch_description
+        self.location = normalize_to_list_of_substitutions(location)
+        self.method = method
 
     def path(self, context: LaunchContext) -> Path:
         return Path(perform_substitutions(context, self.location)).absolute()
 
     def get_launch_description(self, context: LaunchContext) -> LaunchDescription:
-        return load_launch_file(self.path(context))
+        if self._description is not None:
+            return self._description
+        return self._load(self.path(context))
+
+    def _load(self, path: Path) -> LaunchDescription:
+        return load_launch_file(path)
 
     def try_get_launch_description_without_context(self) -> LaunchDescription | None:
         try:
@@ -257,8 +314,54 @@ class PythonLaunchDescriptionSource:
             return None
 
 
-#: Upstream picks the source by file extension; only Python launch files exist here.
-AnyLaunchDescriptionSource = PythonLaunchDescriptionSource
+class PythonLaunchDescriptionSource(LaunchDescriptionSource):
+    """A Python launch file (``*.launch.py``) to include."""
+
+    def __init__(self, launch_file_path: SomeSubstitutionsType) -> None:
+        super().__init__(None, launch_file_path, "interpreted python launch file")
+
+    def _load(self, path: Path) -> LaunchDescription:
+        return load_python_launch_file(path)
+
+
+class FrontendLaunchDescriptionSource(LaunchDescriptionSource):
+    """An XML or YAML launch file (``*.launch.xml``, ``*.launch.yaml``) to include."""
+
+    #: The format to read it as (None: told by its extension).
+    kind: str | None = None
+
+    def __init__(self, launch_file_path: SomeSubstitutionsType, parser: Any = None) -> None:
+        super().__init__(None, launch_file_path, "interpreted frontend launch file")
+
+    def _load(self, path: Path) -> LaunchDescription:
+        from rosbook.launch.frontend import load_frontend_launch_file  # it builds our actions
+
+        return load_frontend_launch_file(path, self.kind)
+
+
+class XMLLaunchDescriptionSource(FrontendLaunchDescriptionSource):
+    """An XML launch file to include (``launch_xml.launch_description_sources``)."""
+
+    kind = "xml"
+
+    def __init__(self, launch_file_path: SomeSubstitutionsType) -> None:
+        super().__init__(launch_file_path)
+
+
+class YAMLLaunchDescriptionSource(FrontendLaunchDescriptionSource):
+    """A YAML launch file to include (``launch_yaml.launch_description_sources``)."""
+
+    kind = "yaml"
+
+    def __init__(self, launch_file_path: SomeSubstitutionsType) -> None:
+        super().__init__(launch_file_path)
+
+
+class AnyLaunchDescriptionSource(LaunchDescriptionSource):
+    """A launch file of any format, told by its extension (``.py``, ``.xml``, ``.yaml``)."""
+
+    def __init__(self, launch_file_path: SomeSubstitutionsType) -> None:
+        super().__init__(None, launch_file_path, "interpreted launch file")
 
 
 class IncludeLaunchDescription(Action):
@@ -267,15 +370,15 @@ class IncludeLaunchDescription(Action):
 
     def __init__(
         self,
-        launch_description_source: PythonLaunchDescriptionSource | SomeSubstitutionsType,
+        launch_description_source: LaunchDescriptionSource | SomeSubstitutionsType,
         *,
         launch_arguments: Iterable[tuple[SomeSubstitutionsType, SomeSubstitutionsType]]
         | None = None,
         **kwargs: Any,
     ) -> None:
         super().__init__(**kwargs)
-        if not isinstance(launch_description_source, PythonLaunchDescriptionSource):
-            launch_description_source = PythonLaunchDescriptionSource(launch_description_source)
+        if not isinstance(launch_description_source, LaunchDescriptionSource):
+            launch_description_source = AnyLaunchDescriptionSource(launch_description_source)
         self.launch_description_source = launch_description_source
         self.launch_arguments = tuple(launch_arguments or ())
 
@@ -326,10 +429,13 @@ class GroupAction(Action):
 
     def execute(self, context: LaunchContext) -> list[Entity] | None:
         inner = context.scoped() if self.scoped else context
+        given = {  # worked out where the group is, before a non-forwarding one clears
+            perform_substitutions(context, name): perform_substitutions(context, value)
+            for name, value in self.launch_configurations.items()
+        }
         if self.scoped and not self.forwarding:
             inner.launch_configurations.clear()
-        for name, value in self.launch_configurations.items():
-            SetLaunchConfiguration(name, value).execute(inner)
+        inner.launch_configurations.update(given)
         if not self.scoped:
             return self.actions
         context.launch.visit(self.actions, inner)
@@ -351,11 +457,17 @@ class TimerAction(Action):
     """Run ``actions`` ``period`` seconds (wall time) after this action is visited."""
 
     def __init__(
-        self, *, period: float | SomeSubstitutionsType, actions: Iterable[Entity], **kwargs: Any
+        self,
+        *,
+        period: float | SomeSubstitutionsType,
+        actions: Iterable[Entity],
+        cancel_on_shutdown: bool | SomeSubstitutionsType = True,
+        **kwargs: Any,
     ) -> None:
         super().__init__(**kwargs)
         self.period = period
         self.actions = list(actions)
+        self.cancel_on_shutdown = cancel_on_shutdown
 
     def describe_conditional_sub_entities(self) -> list[tuple[str, list[Entity]]]:
         return [(f"{self.period} seconds pass", self.actions)]
@@ -364,72 +476,29 @@ class TimerAction(Action):
         period = self.period
         if not isinstance(period, (int, float)):
             period = float(perform_substitutions(context, period))
-        context.launch.add_timer(float(period), self.actions, context)
+        cancel = self.cancel_on_shutdown
+        if not isinstance(cancel, bool):
+            cancel = perform_substitutions(context, cancel).strip().lower() in ("true", "1")
+        context.launch.add_timer(float(period), self.actions, context, cancel_on_shutdown=cancel)
 
 
 class Shutdown(Action):
-    """Shut the whole launch down (as an action, or as ``Node(on_exit=Shutdown())``)."""
+    """Shut the whole launch down (as an action, or as ``Node(on_exit=Shutdown())``): it
+    emits ``launch.events.Shutdown``, as ``EmitEvent(event=Shutdown(reason=...))`` does."""
 
     def __init__(self, *, reason: SomeSubstitutionsType = "reason not given", **kwargs: Any):
         super().__init__(**kwargs)
         self.reason = normalize_to_list_of_substitutions(reason)
 
     def execute(self, context: LaunchContext) -> None:
-        context.launch.begin_shutdown(perform_substitutions(context, self.reason))
-
-
-@dataclass
-class ProcessStarted:
-    """Event: a process started (``OnProcessStart``'s callable gets it)."""
-
-    action: ExecuteProcess
-    name: str
-    cmd: list[str]
-    pid: int
-
-
-@dataclass
-class ProcessExited(ProcessStarted):
-    """Event: a process exited."""
-
-    returncode: int = 0
-
-
-class _ProcessEventHandler:
-    event_type: type = ProcessStarted
-
-    def __init__(self, target_action: ExecuteProcess | None, entities: Any) -> None:
-        self.target_action = target_action
-        self.entities = entities
-
-    def matches(self, event: ProcessStarted) -> bool:
-        return type(event) is self.event_type and self.target_action in (None, event.action)
-
-    def handle(self, event: ProcessStarted, context: LaunchContext) -> list[Entity]:
-        if callable(self.entities) and not isinstance(self.entities, Action):
-            return _entities(self.entities(event, context))
-        return _entities(self.entities)
-
-    def describe_conditional_sub_entities(self) -> list[tuple[str, list[Entity]]]:
-        return [] if callable(self.entities) else [("event", _entities(self.entities))]
-
-
-class OnProcessStart(_ProcessEventHandler):
-    def __init__(self, *, target_action: ExecuteProcess | None = None, on_start: Any) -> None:
-        super().__init__(target_action, on_start)
-
-
-class OnProcessExit(_ProcessEventHandler):
-    event_type = ProcessExited
-
-    def __init__(self, *, target_action: ExecuteProcess | None = None, on_exit: Any) -> None:
-        super().__init__(target_action, on_exit)
+        reason = perform_substitutions(context, self.reason)
+        context.launch.emit_event(events.Shutdown(reason=reason), context)
 
 
 class RegisterEventHandler(Action):
-    """Run actions when a process starts or exits (``OnProcessStart`` / ``OnProcessExit``)."""
+    """Answer events with ``event_handler`` from now on (``launch.event_handlers``)."""
 
-    def __init__(self, event_handler: _ProcessEventHandler, **kwargs: Any) -> None:
+    def __init__(self, event_handler: BaseEventHandler, **kwargs: Any) -> None:
         super().__init__(**kwargs)
         self.event_handler = event_handler
 
@@ -440,6 +509,207 @@ class RegisterEventHandler(Action):
         context.launch.handlers.append((self.event_handler, context))
 
 
+class UnregisterEventHandler(Action):
+    """Stop answering events with ``event_handler``."""
+
+    def __init__(self, event_handler: BaseEventHandler, **kwargs: Any) -> None:
+        super().__init__(**kwargs)
+        self.event_handler = event_handler
+
+    def execute(self, context: LaunchContext) -> None:
+        handlers = context.launch.handlers
+        kept = [(h, c) for h, c in handlers if h is not self.event_handler]
+        if len(kept) == len(handlers):
+            raise LaunchError(f"event handler {self.event_handler!r} is not registered")
+        handlers[:] = kept
+
+
+class EmitEvent(Action):
+    """Emit ``event`` (``launch.events.Shutdown(reason=...)``, a process event, ...)."""
+
+    def __init__(self, *, event: events.Event, **kwargs: Any) -> None:
+        super().__init__(**kwargs)
+        if not isinstance(event, events.Event):
+            raise TypeError(f"EmitEvent expected a launch Event, got {type(event).__name__}")
+        self.event = event
+
+    def execute(self, context: LaunchContext) -> None:
+        context.launch.emit_event(self.event, context)
+
+
+class OpaqueFunction(Action):
+    """Call ``function(context, *args, **kwargs)``; the actions it returns run next."""
+
+    def __init__(
+        self,
+        *,
+        function: Callable[..., Any],
+        args: Iterable[Any] | None = None,
+        kwargs: Mapping[str, Any] | None = None,
+        **left_over_kwargs: Any,
+    ) -> None:
+        super().__init__(**left_over_kwargs)
+        if not callable(function):
+            raise TypeError(f"OpaqueFunction expected a callable, got {function!r}")
+        self.function = function
+        self.args = list(args or [])
+        self.kwargs = dict(kwargs or {})
+
+    def execute(self, context: LaunchContext) -> list[Entity] | None:
+        return _entities(self.function(context, *self.args, **self.kwargs)) or None
+
+
+class OpaqueCoroutine(Action):
+    """Run ``coroutine(context, *args, **kwargs)`` (without the context if
+    ``ignore_context``) beside the launch, in a thread of its own."""
+
+    def __init__(
+        self,
+        *,
+        coroutine: Callable[..., Any],
+        args: Iterable[Any] | None = None,
+        kwargs: Mapping[str, Any] | None = None,
+        ignore_context: bool = False,
+        **left_over_kwargs: Any,
+    ) -> None:
+        super().__init__(**left_over_kwargs)
+        if not asyncio.iscoroutinefunction(coroutine):
+            raise TypeError(f"OpaqueCoroutine expected a coroutine function, got {coroutine!r}")
+        self.coroutine = coroutine
+        self.args = list(args or [])
+        self.kwargs = dict(kwargs or {})
+        self.ignore_context = ignore_context
+
+    def execute(self, context: LaunchContext) -> None:
+        args = self.args if self.ignore_context else [context, *self.args]
+        run = lambda: asyncio.run(self.coroutine(*args, **self.kwargs))  # noqa: E731
+        threading.Thread(target=run, daemon=True).start()
+
+
+class SetEnvironmentVariable(Action):
+    """Set an environment variable for the processes after it (in its scope)."""
+
+    def __init__(
+        self, name: SomeSubstitutionsType, value: SomeSubstitutionsType, **kwargs: Any
+    ) -> None:
+        super().__init__(**kwargs)
+        self.name = normalize_to_list_of_substitutions(name)
+        self.value = normalize_to_list_of_substitutions(value)
+
+    def execute(self, context: LaunchContext) -> None:
+        name = perform_substitutions(context, self.name)
+        context.environment[name] = perform_substitutions(context, self.value)
+
+
+class AppendEnvironmentVariable(Action):
+    """Append (or ``prepend``) a value to an environment variable, ``separator`` between."""
+
+    def __init__(
+        self,
+        name: SomeSubstitutionsType,
+        value: SomeSubstitutionsType,
+        prepend: bool | SomeSubstitutionsType = False,
+        separator: SomeSubstitutionsType = os.pathsep,
+        **kwargs: Any,
+    ) -> None:
+        super().__init__(**kwargs)
+        self.name = normalize_to_list_of_substitutions(name)
+        self.value = normalize_to_list_of_substitutions(value)
+        self.prepend = prepend
+        self.separator = normalize_to_list_of_substitutions(separator)
+
+    def execute(self, context: LaunchContext) -> None:
+        name = perform_substitutions(context, self.name)
+        value = perform_substitutions(context, self.value)
+        prepend = self.prepend
+        if not isinstance(prepend, bool):
+            prepend = perform_substitutions(context, prepend).strip().lower() in ("true", "1")
+        old = context.environment.get(name)
+        if old:
+            separator = perform_substitutions(context, self.separator)
+            value = f"{value}{separator}{old}" if prepend else f"{old}{separator}{value}"
+        context.environment[name] = value
+
+
+class UnsetEnvironmentVariable(Action):
+    """Unset an environment variable for the processes after it."""
+
+    def __init__(self, name: SomeSubstitutionsType, **kwargs: Any) -> None:
+        super().__init__(**kwargs)
+        self.name = normalize_to_list_of_substitutions(name)
+
+    def execute(self, context: LaunchContext) -> None:
+        context.environment.pop(perform_substitutions(context, self.name), None)
+
+
+class PushEnvironment(Action):
+    """Save the environment; ``PopEnvironment`` restores it."""
+
+    def execute(self, context: LaunchContext) -> None:
+        context.push_environment()
+
+
+class PopEnvironment(Action):
+    """Restore the environment the last ``PushEnvironment`` saved."""
+
+    def execute(self, context: LaunchContext) -> None:
+        context.pop_environment()
+
+
+class ResetEnvironment(Action):
+    """Back to the environment the launch started with."""
+
+    def execute(self, context: LaunchContext) -> None:
+        context.environment.clear()
+        context.environment.update(context.launch.env)
+
+
+class PushLaunchConfigurations(Action):
+    """Save the launch configurations; ``PopLaunchConfigurations`` restores them."""
+
+    def execute(self, context: LaunchContext) -> None:
+        context.push_configurations()
+
+
+class PopLaunchConfigurations(Action):
+    """Restore the launch configurations the last ``PushLaunchConfigurations`` saved."""
+
+    def execute(self, context: LaunchContext) -> None:
+        context.pop_configurations()
+
+
+class ResetLaunchConfigurations(Action):
+    """Clear the launch configurations, keeping only ``launch_configurations`` (their
+    values worked out before the clear)."""
+
+    def __init__(
+        self,
+        launch_configurations: Mapping[SomeSubstitutionsType, SomeSubstitutionsType] | None = None,
+        **kwargs: Any,
+    ) -> None:
+        super().__init__(**kwargs)
+        self.launch_configurations = dict(launch_configurations or {})
+
+    def execute(self, context: LaunchContext) -> None:
+        kept = {
+            perform_substitutions(context, k): perform_substitutions(context, v)
+            for k, v in self.launch_configurations.items()
+        }
+        context.launch_configurations.clear()
+        context.launch_configurations.update(kept)
+
+
+class UnsetLaunchConfiguration(Action):
+    """Remove a launch configuration."""
+
+    def __init__(self, name: SomeSubstitutionsType, **kwargs: Any) -> None:
+        super().__init__(**kwargs)
+        self.name = normalize_to_list_of_substitutions(name)
+
+    def execute(self, context: LaunchContext) -> None:
+        context.launch_configurations.pop(perform_substitutions(context, self.name), None)
+
+
 class ExecuteProcess(Action):
     """A process to run: ``cmd`` is a list of arguments, each substitutions."""
 
@@ -447,6 +717,7 @@ class ExecuteProcess(Action):
         self,
         *,
         cmd: Iterable[SomeSubstitutionsType],
+        prefix: SomeSubstitutionsType | None = None,
         name: SomeSubstitutionsType | None = None,
         cwd: SomeSubstitutionsType | None = None,
         env: Mapping[str, str] | None = None,
@@ -456,11 +727,25 @@ class ExecuteProcess(Action):
         sigkill_timeout: float | SomeSubstitutionsType | None = None,
         emulate_tty: bool = False,
         output: str = "log",
+        output_format: str = "[{this.process_description.final_name}] {line}",
+        cached_output: bool = False,
+        log_cmd: bool = False,
         on_exit: Any = None,
+        respawn: bool | SomeSubstitutionsType = False,
+        respawn_delay: float | None = None,
+        respawn_max_retries: int = -1,
         **kwargs: Any,
     ) -> None:
         super().__init__(**kwargs)
         self.cmd = [normalize_to_list_of_substitutions(part) for part in cmd]
+        self.prefix = None if prefix is None else normalize_to_list_of_substitutions(prefix)
+        self.output_format = output_format
+        self.cached_output = cached_output
+        self.log_cmd = log_cmd
+        self.respawn = respawn
+        self.respawn_delay = respawn_delay
+        self.respawn_max_retries = respawn_max_retries
+        self.process_details: dict[str, Any] | None = None
         self.process_name = name
         self.cwd = cwd
         self.env = env
@@ -498,8 +783,33 @@ class ExecuteProcess(Action):
     def command(self, context: LaunchContext) -> list[str]:
         return [perform_substitutions(context, part) for part in self.cmd]
 
+    def _prefix(self, cmd: list[str], context: LaunchContext) -> str:
+        """The launch prefix (``gdb -ex run --args``, ``xterm -e``): the action's own, else
+        the ``launch-prefix`` configuration (``ros2 launch --launch-prefix``) if the
+        executable's name matches ``launch-prefix-filter``, as upstream applies them."""
+        if self.prefix is not None:
+            return perform_substitutions(context, self.prefix)
+        configs = context.launch_configurations
+        prefix = str(configs.get("launch-prefix", ""))
+        prefix_filter = str(configs.get("launch-prefix-filter", ""))
+        if prefix and cmd and re.match(prefix_filter, os.path.basename(cmd[0])) is None:
+            return ""
+        return prefix
+
+    def shows_stdout(self) -> bool:
+        """Whether stdout goes to the screen: ``output`` 'screen' or 'both', unless
+        ``OVERRIDE_LAUNCH_PROCESS_OUTPUT`` says otherwise (``ros2 launch -a``)."""
+        return os.environ.get("OVERRIDE_LAUNCH_PROCESS_OUTPUT", self.output) in ("screen", "both")
+
+    def respawns(self, context: LaunchContext) -> bool:
+        """Whether the process is started again when it exits (``respawn``)."""
+        if isinstance(self.respawn, bool):
+            return self.respawn
+        return perform_substitutions(context, self.respawn).strip().lower() in ("true", "1")
+
     def execute(self, context: LaunchContext) -> None:
         cmd = self.command(context)
+        cmd = [*shlex.split(self._prefix(cmd, context)), *cmd]
         env = dict(context.environment if self.env is None else self.env)
         env.update({k: perform_substitutions(context, v) for k, v in self.additional_env.items()})
         cwd = None if self.cwd is None else perform_substitutions(context, self.cwd)
@@ -515,7 +825,7 @@ def _prefix_namespace(base: str | None, namespace: str) -> str:
     return absolute_name(f"{base.rstrip('/')}/{namespace}".rstrip("/") or "/")
 
 
-class PushRosNamespace(Action):
+class PushROSNamespace(Action):
     """Put the nodes after it (in its scope) in ``namespace`` (relative ones nest)."""
 
     def __init__(self, namespace: SomeSubstitutionsType, **kwargs: Any) -> None:
@@ -528,14 +838,20 @@ class PushRosNamespace(Action):
         context.launch_configurations["ros_namespace"] = _prefix_namespace(base, pushed)
 
 
-def _parameter_value(context: LaunchContext, value: Any) -> Any:
-    """A literal as is; substitutions performed and read as YAML, as launch_ros does."""
-    if is_substitution(value):
-        parsed = yaml.safe_load(perform_substitutions(context, value))
-        return "" if parsed is None else parsed
-    if isinstance(value, (list, tuple)):
-        return [_parameter_value(context, v) for v in value]
-    return value
+_parameter_value = evaluate_parameter_value
+
+
+#: Jazzy's older spelling, still exported by launch_ros.
+PushRosNamespace = PushROSNamespace
+
+
+class RosTimer(TimerAction):
+    """A ``TimerAction`` (ROS time is wall time for the launch itself here, as it is
+    upstream unless the launch sets ``use_sim_time``)."""
+
+
+#: launch_ros's other spelling.
+ROSTimer = RosTimer
 
 
 class SetParameter(Action):
@@ -550,6 +866,56 @@ class SetParameter(Action):
         name = perform_substitutions(context, self.name)
         params = context.launch_configurations.setdefault("global_params", [])
         params.append((name, _parameter_value(context, self.value)))
+
+
+class SetParametersFromFile(Action):
+    """Give every node after it in its scope this parameter file."""
+
+    def __init__(self, filename: SomeSubstitutionsType, **kwargs: Any) -> None:
+        super().__init__(**kwargs)
+        self.filename = normalize_to_list_of_substitutions(filename)
+
+    def execute(self, context: LaunchContext) -> None:
+        params = context.launch_configurations.setdefault("global_params", [])
+        params.append(ParameterFile(perform_substitutions(context, self.filename)))
+
+
+class SetUseSimTime(SetParameter):
+    """``use_sim_time`` for every node after it in its scope."""
+
+    def __init__(self, value: bool | SomeSubstitutionsType, **kwargs: Any) -> None:
+        super().__init__("use_sim_time", value, **kwargs)
+
+
+class SetRemap(Action):
+    """Remap ``src`` to ``dst`` in every node after it in its scope."""
+
+    def __init__(
+        self, src: SomeSubstitutionsType, dst: SomeSubstitutionsType, **kwargs: Any
+    ) -> None:
+        super().__init__(**kwargs)
+        self.src = normalize_to_list_of_substitutions(src)
+        self.dst = normalize_to_list_of_substitutions(dst)
+
+    def execute(self, context: LaunchContext) -> None:
+        remaps = context.launch_configurations.setdefault("ros_remaps", [])
+        remaps.append(
+            (perform_substitutions(context, self.src), perform_substitutions(context, self.dst))
+        )
+
+
+class SetROSLogDir(Action):
+    """``ROS_LOG_DIR`` of the nodes after it (relative: under the current one)."""
+
+    def __init__(self, new_log_dir: SomeSubstitutionsType, **kwargs: Any) -> None:
+        super().__init__(**kwargs)
+        self.new_log_dir = normalize_to_list_of_substitutions(new_log_dir)
+
+    def execute(self, context: LaunchContext) -> None:
+        new = perform_substitutions(context, self.new_log_dir)
+        if not os.path.isabs(new):
+            new = os.path.join(LaunchLogDir().perform(context), new)
+        context.environment["ROS_LOG_DIR"] = new
 
 
 def yaml_value(value: Any) -> str:
@@ -636,25 +1002,38 @@ class Node(ExecuteProcess):
         namespace = self.node_namespace(context)
         if namespace and namespace != "/":
             ros_args += ["-r", f"__ns:={namespace}"]
-        for key, value in context.launch_configurations.get("global_params", []):
-            ros_args += ["-p", f"{key}:={yaml_value(value)}"]
-        for entry in self.parameters:
-            if isinstance(entry, Mapping):
-                for key, value in _flatten(entry).items():
-                    ros_args += [
-                        "-p",
-                        f"{perform(key)}:={yaml_value(_parameter_value(context, value))}",
-                    ]
+        for entry in context.launch_configurations.get("global_params", []):
+            if isinstance(entry, ParameterFile):
+                ros_args += ["--params-file", str(entry.evaluate(context))]
             else:
-                ros_args += [
-                    "--params-file",
-                    perform(os.fspath(entry) if isinstance(entry, os.PathLike) else entry),
-                ]
+                ros_args += ["-p", f"{entry[0]}:={yaml_value(entry[1])}"]
+        for entry in self.parameters:
+            ros_args += self._parameter_arguments(entry, context)
+        for source, target in context.launch_configurations.get("ros_remaps", []):
+            ros_args += ["-r", f"{source}:={target}"]
         for source, target in self.remappings:
             ros_args += ["-r", f"{perform(source)}:={perform(target)}"]
         ros_args += [perform(a) for a in self.ros_arguments]
         argv = [executable, *(perform(a) for a in self.arguments)]
         return [*argv, "--ros-args", *ros_args] if ros_args else argv
+
+    @staticmethod
+    def _parameter_arguments(entry: Any, context: LaunchContext) -> list[str]:
+        """``-p name:=value`` or ``--params-file PATH`` for one entry of ``parameters``: a
+        dict, a ``Parameter``, a ``ParameterFile``, or a path (str, substitutions)."""
+        if isinstance(entry, Mapping):
+            arguments = []
+            for key, value in _flatten(entry).items():
+                name = perform_substitutions(context, key)
+                arguments += ["-p", f"{name}:={yaml_value(_parameter_value(context, value))}"]
+            return arguments
+        if isinstance(entry, ParameterDescription):
+            name, value = entry.evaluate(context)
+            return ["-p", f"{name}:={yaml_value(value)}"]
+        if isinstance(entry, ParameterFile):
+            return ["--params-file", str(entry.evaluate(context))]
+        path = os.fspath(entry) if isinstance(entry, os.PathLike) else entry
+        return ["--params-file", perform_substitutions(context, path)]
 
     def label(self, cmd: list[str], context: LaunchContext) -> str:
         if self.exec_name is not None:
@@ -672,6 +1051,18 @@ class Planned:
     env: dict[str, str]
     cwd: str | None
     context: LaunchContext
+    respawns: int = 0
+
+
+class _Respawn(Action):
+    """Start a planned process again (what ``respawn=True`` schedules)."""
+
+    def __init__(self, planned: Planned) -> None:
+        super().__init__()
+        self.planned = planned
+
+    def execute(self, context: LaunchContext) -> None:
+        context.launch.plan(self.planned)
 
 
 @dataclass
@@ -687,10 +1078,27 @@ class Process:
     namespace: str | None = None
     lines: list[str] = field(default_factory=list)
     reported: bool = False
+    readers: list[threading.Thread] = field(default_factory=list)
+    planned: Planned | None = None
 
     @property
     def pid(self) -> int:
         return self.popen.pid
+
+    def output_read(self) -> bool:
+        """Its output is all read (an exit is handled after the lines before it)."""
+        return not any(reader.is_alive() for reader in self.readers)
+
+    def event_details(self) -> dict[str, Any]:
+        """What its process events carry (``event.action``, ``.pid``, ...)."""
+        return {
+            "action": self.node,
+            "name": self.name,
+            "cmd": self.cmd,
+            "cwd": None if self.planned is None else self.planned.cwd,
+            "env": None if self.planned is None else self.planned.env,
+            "pid": self.pid,
+        }
 
     @property
     def returncode(self) -> int | None:
@@ -721,6 +1129,7 @@ class _Timer:
     period: float
     actions: list[Entity]
     context: LaunchContext
+    cancel_on_shutdown: bool = True
     due: float | None = None
 
 
@@ -760,6 +1169,9 @@ class Launch:
         self._readers: list[threading.Thread] = []
         self._plan: list[Planned] = []
         self._timers: list[_Timer] = []
+        self._posted: queue.Queue[events.Event] = queue.Queue()
+        self._cleanups: list[Callable[[], None]] = []
+        self.ros_adapter: Any = None  # the launch's own ROS node, made when one is needed
         self._started = False
         context = LaunchContext(self.env, launch=self)
         context.launch_configurations.update(launch_arguments)
@@ -773,6 +1185,8 @@ class Launch:
                 children = entity.entities
             elif isinstance(entity, Action):
                 children = entity.visit(context)
+                if not isinstance(entity, ExecuteProcess):  # a process completes on exit
+                    self._complete(entity)
             else:
                 raise LaunchError(
                     f"cannot launch {entity!r}: expected an action of launch or launch_ros"
@@ -795,8 +1209,17 @@ class Launch:
         elif self.shutting_down is None:
             self._start(planned)
 
-    def add_timer(self, period: float, actions: list[Entity], context: LaunchContext) -> None:
-        timer = _Timer(period, actions, context)
+    def add_timer(
+        self,
+        period: float,
+        actions: list[Entity],
+        context: LaunchContext,
+        *,
+        cancel_on_shutdown: bool = True,
+    ) -> None:
+        """Visit ``actions`` ``period`` seconds after the launch starts (or now, if it
+        has); a shutdown cancels them unless ``cancel_on_shutdown`` is false."""
+        timer = _Timer(period, actions, context, cancel_on_shutdown)
         if self._started:
             timer.due = time.monotonic() + period
         self._timers.append(timer)
@@ -805,24 +1228,51 @@ class Launch:
         now = time.monotonic()
         for timer in [t for t in self._timers if t.due is not None and t.due <= now]:
             self._timers.remove(timer)
-            if self.shutting_down is None:
+            if self.shutting_down is None or not timer.cancel_on_shutdown:
                 self._visit_later(timer.actions, timer.context)
 
-    def _emit(self, event: ProcessStarted, entities: list[Entity], context: LaunchContext) -> None:
-        """Visit the actions a process event brings (its own ``on_exit``, then handlers)."""
+    def emit_event(self, event: events.Event, context: LaunchContext | None = None) -> None:
+        """Emit ``event``: every handler that matches it visits the actions it gives (they
+        see it as ``LocalSubstitution('event....')``); then the launch's own answer
+        (a ``Shutdown`` shuts down, a process event signals its processes)."""
+        if isinstance(event, events.Shutdown):
+            self.begin_shutdown(event.reason, event=event)
+            return
+        self._handle(event)
+        if isinstance(event, events.SignalProcess):
+            for process in self.running():
+                if event.process_matcher(process.node):
+                    self._signal(process, event.signal)
+        elif isinstance(event, events.ShutdownProcess):
+            for process in self.running():
+                if event.process_matcher(process.node):
+                    self._signal(process, signal.SIGINT)
+        elif isinstance(event, events.IncludeLaunchDescription) and context is not None:
+            self._visit_later([event.launch_description], context)
+
+    def _handle(self, event: events.Event) -> None:
+        """Visit what each registered handler matching ``event`` gives, in a copy of the
+        context it was registered in (its locals: ``event``)."""
         for handler, handler_context in list(self.handlers):
-            if handler.matches(event):
-                self._visit_later(handler.handle(event, handler_context), handler_context)
-        if entities:
-            self._visit_later(entities, context)
+            if not handler.matches(event):
+                continue
+            if handler.handle_once:
+                self.handlers[:] = [(h, c) for h, c in self.handlers if h is not handler]
+            local = handler_context.with_locals({})
+            self._visit_later(_entities(handler.handle(event, local)), local)
+
+    def _complete(self, action: Action) -> None:
+        """``ExecutionComplete`` of ``action``, if a handler waits for one."""
+        if self.handlers:
+            self._handle(ExecutionComplete(action=action))
 
     # -- starting ----------------------------------------------------------------
     def start(self) -> Launch:
         """Start every process planned, in order, and the timers."""
         self._started = True
         _running.add(self)
-        for planned in self._plan:
-            self._start(planned)
+        for planned in self._plan if self.shutting_down is None else []:
+            self._start(planned)  # (a Shutdown while the description was visited: none)
         for timer in self._timers:
             timer.due = time.monotonic() + timer.period
         return self
@@ -849,31 +1299,39 @@ class Launch:
         if isinstance(action, Node):
             process.node_name = action.node_name(planned.context)
             process.namespace = action.node_namespace(planned.context)
+        process.planned = planned
         self.processes.append(process)
+        action.process_details = {"name": name, "cmd": cmd, "cwd": planned.cwd, "pid": popen.pid}
         self.say(f"[INFO] [{name}]: process started with pid [{popen.pid}]")
-        for stream, to_screen in (
-            (popen.stdout, action.output in ("screen", "both")),
-            (popen.stderr, True),
-        ):
-            reader = threading.Thread(
-                target=self._read, args=(process, stream, to_screen), daemon=True
-            )
+        for stream, fd in ((popen.stdout, 1), (popen.stderr, 2)):
+            reader = threading.Thread(target=self._read, args=(process, stream, fd), daemon=True)
             reader.start()
+            process.readers.append(reader)
             self._readers.append(reader)
-        self._emit(ProcessStarted(action, name, cmd, popen.pid), [], planned.context)
+        self._handle(ProcessStarted(**process.event_details()))
 
-    def _read(self, process: Process, stream: IO[bytes] | None, to_screen: bool) -> None:
+    def _read(self, process: Process, stream: IO[bytes] | None, fd: int) -> None:
         assert stream is not None
         for raw in iter(stream.readline, b""):
-            line = raw.decode(errors="replace").rstrip("\n")
-            process.lines.append(line)
-            if to_screen:
-                self._queue.put((process, line))
+            process.lines.append(raw.decode(errors="replace").rstrip("\n"))
+            self._queue.put((process, raw, fd))
         stream.close()
 
     def say(self, line: str) -> None:
         """Print a line of the launch's own (``[INFO] [launch]: ...``) in order."""
-        self._queue.put((None, line))
+        self._queue.put((None, line.encode(), 0))
+
+    def post_event(self, event: events.Event) -> None:
+        """Emit ``event`` from another thread: ``pump`` emits it in the launch's thread."""
+        self._posted.put(event)
+
+    def add_cleanup(self, cleanup: Callable[[], None]) -> None:
+        """Call ``cleanup`` once when the launch ends (its ROS node's shutdown, say)."""
+        self._cleanups.append(cleanup)
+
+    def _clean_up(self) -> None:
+        while self._cleanups:
+            self._cleanups.pop()()
 
     # -- running -----------------------------------------------------------------
     def pump(self, timeout: float = 0.0) -> list[str]:
@@ -881,18 +1339,26 @@ class Launch:
         new: list[str] = []
         deadline = time.monotonic() + timeout
         while True:
+            while not self._posted.empty():
+                self.emit_event(self._posted.get_nowait())
             self._check_exits()
             self._fire_timers()
             remaining = deadline - time.monotonic()
             try:
                 if remaining > 0:
-                    process, line = self._queue.get(timeout=min(0.05, remaining))
+                    process, raw, fd = self._queue.get(timeout=min(0.05, remaining))
                 else:
-                    process, line = self._queue.get_nowait()
+                    process, raw, fd = self._queue.get_nowait()
             except queue.Empty:
                 if remaining <= 0:
                     break
                 continue
+            line = raw.decode(errors="replace").rstrip("\n")
+            if process is not None:
+                io_event = ProcessStdout if fd == 1 else ProcessStderr
+                self._handle(io_event(text=raw, **process.event_details()))
+                if fd == 1 and not process.node.shows_stdout():
+                    continue  # output='log': to the log only, as upstream
             text = f"[{process.name}] {line}" if process is not None else line
             self.output.append(text)
             new.append(text)
@@ -901,9 +1367,9 @@ class Launch:
         return new
 
     def _check_exits(self) -> None:
-        for process in self.processes:
+        for process in list(self.processes):
             code = process.returncode
-            if code is None or process.reported:
+            if code is None or process.reported or not process.output_read():
                 continue
             process.reported = True
             if code == 0:
@@ -915,11 +1381,28 @@ class Launch:
                     f"[ERROR] [{process.name}]: process has died [pid {process.pid}, exit code "
                     f"{code}, cmd '{' '.join(process.cmd)}']."
                 )
-            event = ProcessExited(process.node, process.name, process.cmd, process.pid, code)
+            event = ProcessExited(returncode=code, **process.event_details())
+            self._handle(event)
             on_exit = process.node.on_exit
             if callable(on_exit) and not isinstance(on_exit, Action):
                 on_exit = on_exit(event, process.context)
-            self._emit(event, _entities(on_exit), process.context)
+            if on_exit:
+                self._visit_later(_entities(on_exit), process.context.with_locals({"event": event}))
+            self._complete(process.node)
+            self._respawn(process)
+
+    def _respawn(self, process: Process) -> None:
+        """Start an exited process again if its action says ``respawn`` (after
+        ``respawn_delay`` seconds, at most ``respawn_max_retries`` times; -1: always)."""
+        action, planned = process.node, process.planned
+        if self.shutting_down is not None or planned is None:
+            return
+        if not action.respawns(planned.context):
+            return
+        if 0 <= action.respawn_max_retries <= planned.respawns:
+            return
+        planned.respawns += 1
+        self.add_timer(action.respawn_delay or 0.0, [_Respawn(planned)], planned.context)
 
     def running(self) -> list[Process]:
         return [p for p in self.processes if p.alive()]
@@ -927,7 +1410,9 @@ class Launch:
     def busy(self) -> bool:
         """Processes still run (or their exit is still to handle), or timers are to fire."""
         unhandled = any(not p.reported for p in self.processes)
-        return unhandled or bool(self._timers and self.shutting_down is None)
+        if self.shutting_down is not None:
+            return unhandled or any(not t.cancel_on_shutdown for t in self._timers)
+        return unhandled or bool(self._timers)
 
     def wait(self, timeout: float | None = None) -> bool:
         """Pump until every process has exited and every timer fired; whether they did
@@ -944,6 +1429,9 @@ class Launch:
         """Run in the foreground until every process exits or Ctrl-C; the exit status."""
         try:
             self.wait()
+            if self.shutting_down is None:  # idle: OnShutdown handlers still run, as upstream
+                self.shutting_down = "idle"
+                self._handle(events.Shutdown(reason="idle"))
         except KeyboardInterrupt:
             self.say("[WARNING] [launch]: user interrupted with ctrl-c (SIGINT)")
             while True:
@@ -956,15 +1444,19 @@ class Launch:
                         "ignoring..."
                     )
         self._drain()
+        self._clean_up()
+        _running.discard(self)  # ended: nothing to stop at exit
         return 0 if all(p.returncode == 0 for p in self.processes) else 1
 
     # -- stopping ----------------------------------------------------------------
-    def begin_shutdown(self, reason: str) -> None:
-        """Ctrl-C every process (once: a second request while stopping changes nothing)."""
+    def begin_shutdown(self, reason: str, *, event: events.Shutdown | None = None) -> None:
+        """Answer ``OnShutdown`` handlers, then Ctrl-C every process (once: a second
+        request while stopping changes nothing)."""
         if self.shutting_down is not None:
             return
         self.shutting_down = reason
         self.say(f"[INFO] [launch]: shutting down: {reason}")
+        self._handle(event if event is not None else events.Shutdown(reason=reason))
         for process in self.running():
             self._signal(process, signal.SIGINT)
 
@@ -998,6 +1490,7 @@ class Launch:
             process.popen.wait()
             self._signal(process, signal.SIGKILL)  # anything it started in its group
         self._drain()
+        self._clean_up()
         _running.discard(self)
         return {p.name: p.popen.returncode for p in self.processes}
 
@@ -1060,7 +1553,21 @@ def _front_ends_for_launch_files() -> None:
                 break
 
 
+#: Extensions of XML and YAML launch files (anything else is read as Python, as upstream).
+FRONTEND_SUFFIXES = (".xml", ".yaml", ".yml")
+
+
 def load_launch_file(path: str | os.PathLike[str]) -> LaunchDescription:
+    """The ``LaunchDescription`` of a launch file: Python, XML or YAML by its extension."""
+    source = Path(path)
+    if not source.is_file():
+        raise LaunchError(f"no launch file '{source}'")
+    if source.suffix in FRONTEND_SUFFIXES:
+        return FrontendLaunchDescriptionSource(str(source))._load(source)
+    return load_python_launch_file(source)
+
+
+def load_python_launch_file(path: str | os.PathLike[str]) -> LaunchDescription:
     """Run a Python launch file and return its ``generate_launch_description()``."""
     source = Path(path)
     if not source.is_file():
@@ -1080,5 +1587,129 @@ def include(
     """A description that includes the launch file ``path`` with these arguments (what
     ``ros2 launch`` runs, as upstream: required arguments are checked, the file's folder
     is ``ThisLaunchFileDir``)."""
-    source = PythonLaunchDescriptionSource(os.fspath(path))
+    source = AnyLaunchDescriptionSource(os.fspath(path))
     return LaunchDescription([IncludeLaunchDescription(source, launch_arguments=launch_arguments)])
+
+
+class ExecuteLocal(ExecuteProcess):
+    """A process given as a ``launch.descriptions.Executable`` (what ``ExecuteProcess``
+    builds from its ``cmd``), with the same options."""
+
+    def __init__(self, *, process_description: Executable, **kwargs: Any) -> None:
+        description = process_description
+        super().__init__(
+            cmd=[*description.cmd, *description.arguments],
+            prefix=description.prefix,
+            name=description.name,
+            cwd=description.cwd,
+            env=None if description.env is None else dict(description.env),
+            additional_env=None
+            if description.additional_env is None
+            else dict(description.additional_env),
+            **kwargs,
+        )
+        self.process_description = description
+
+
+#: What ``LaunchDescription`` holds: an entity, or a list of them.
+SomeEntitiesType = LaunchDescriptionEntity | Iterable[LaunchDescriptionEntity]
+SomeEntitiesType_types_tuple = (LaunchDescriptionEntity, Iterable)
+
+
+def _walk(entity: Entity, depth: int, lines: list[str]) -> None:
+    pad = "    " * depth
+    if isinstance(entity, LaunchDescription):
+        lines.append(f"{pad}<launch.LaunchDescription object>")
+    else:
+        condition = "" if getattr(entity, "condition", None) is None else " (conditional)"
+        lines.append(f"{pad}{entity.describe()}{condition}")
+    for sub in entity.describe_sub_entities():
+        _walk(sub, depth + 1, lines)
+    for reason, subs in entity.describe_conditional_sub_entities():
+        lines.append(f"{pad}    on {reason}:")
+        for sub in subs:
+            if isinstance(sub, LaunchDescriptionEntity):
+                _walk(sub, depth + 2, lines)
+            else:
+                lines.append(f"{pad}        {sub!r}")
+
+
+def format_launch_description(description: LaunchDescription) -> str:
+    """The tree of a description's entities, as ``LaunchIntrospector`` shows it."""
+    lines: list[str] = []
+    _walk(description, 0, lines)
+    return "\n".join(lines)
+
+
+class LaunchIntrospector:
+    """Shows a description's entities without running it."""
+
+    def format_launch_description(self, launch_description: LaunchDescription) -> str:
+        return format_launch_description(launch_description)
+
+
+class LaunchService:
+    """Runs launch descriptions (what ``ros2 launch`` uses): include them, then ``run``."""
+
+    def __init__(
+        self,
+        *,
+        argv: Iterable[str] | None = None,
+        noninteractive: bool = False,
+        debug: bool = False,
+    ) -> None:
+        self.argv = list(argv or [])
+        self.noninteractive = noninteractive
+        self.debug = debug
+        self._descriptions: list[LaunchDescription] = []
+        self._launch: Launch | None = None
+
+    def include_launch_description(self, launch_description: LaunchDescription) -> None:
+        self._descriptions.append(launch_description)
+
+    def run(self, *, shutdown_when_idle: bool = True) -> int:
+        """Run everything included until every process exits (or Ctrl-C): 0 if all did
+        cleanly."""
+        arguments = [tuple(a.split(":=", 1)) for a in self.argv if ":=" in a]
+        self._launch = Launch(
+            LaunchDescription(self._descriptions),
+            launch_arguments=[(name, value) for name, value in arguments],
+            echo=lambda line: print(line, flush=True),
+        )
+        return self._launch.start().spin()
+
+    def shutdown(self, force_sync: bool = False) -> None:
+        if self._launch is not None:
+            self._launch.begin_shutdown("LaunchService.shutdown() called")
+
+
+def get_launch_description_from_python_launch_file(
+    python_launch_file_path: str,
+) -> LaunchDescription:
+    return load_python_launch_file(python_launch_file_path)
+
+
+def get_launch_description_from_frontend_launch_file(
+    frontend_launch_file_path: str, *, parser: Any = None
+) -> LaunchDescription:
+    return FrontendLaunchDescriptionSource(frontend_launch_file_path)._load(
+        Path(frontend_launch_file_path)
+    )
+
+
+def get_launch_description_from_any_launch_file(
+    launch_file_path: str | os.PathLike[str],
+) -> LaunchDescription:
+    return load_launch_file(launch_file_path)
+
+
+def load_python_launch_file_as_module(python_launch_file_path: str) -> Any:
+    """A Python launch file run as a module (``generate_launch_description`` on it)."""
+    path = Path(python_launch_file_path)
+    _front_ends_for_launch_files()
+    spec = importlib.util.spec_from_file_location(path.stem.replace(".", "_"), path)
+    if spec is None or spec.loader is None:
+        raise InvalidPythonLaunchFileError(f"cannot load '{path}' as a Python module")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module

@@ -61,6 +61,12 @@ def ament_prefixes(env: Mapping[str, str] | None = None) -> list[Path]:
     return prefixes
 
 
+def not_in_index(package: str, env: Mapping[str, str] | None = None) -> str:
+    """What ament_index_python says of a package it cannot find (its exact words)."""
+    searched = [str(prefix) for prefix in ament_prefixes(env)]
+    return f"package '{package}' not found, searching: {searched}"
+
+
 def packages(env: Mapping[str, str] | None = None) -> dict[str, Path]:
     """Every package in the ament index, by name, with the prefix that provides it."""
     found: dict[str, Path] = {}
