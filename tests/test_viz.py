@@ -121,7 +121,7 @@ def test_a_standing_robot_rests_its_wheels_and_caster_on_the_floor(bot: urdf.Rob
     view = viz.RobotView(bot)
     view.set_base_pose(0.5, 0.0, 1.0)
     placed = matrix(last(view.scene().commands, "set_transform", "/meshcat/bot"))
-    assert placed[2, 3] == pytest.approx(0.04, abs=1e-6), "base_link (the axle) is r above the floor"
+    assert placed[2, 3] == pytest.approx(0.04, abs=1e-6), "base_link is r above the floor"
 
 
 def test_frames_are_triads_that_can_be_hidden(bot: urdf.Robot) -> None:
