@@ -364,7 +364,7 @@ def test_play_loop_starts_over_until_ctrl_c(foreign_bag, node) -> None:
 def test_python_api_writes_messages_and_the_twin_replays_their_odometry(tmp_path) -> None:
     """``BagWriter`` takes message objects (serialized by rclpy), ``read_messages``
     gives them back in time order, and ``twin.odometry_frames`` turns a bag's odom into
-    twin frames that end at its last pose (the box centre 0.2 m behind the axle)."""
+    twin frames that end at its last pose (base_link's, as the message gives it)."""
     path = tmp_path / "drive"
     with bags.BagWriter(path, "sqlite3") as bag:
         bag.add_topic("/odom", "nav_msgs/msg/Odometry")
@@ -380,7 +380,7 @@ def test_python_api_writes_messages_and_the_twin_replays_their_odometry(tmp_path
     assert [m.pose.pose.position.x for m in messages][:2] == [0.2 * 50 * 0.02, 0.2 * 49 * 0.02]
     frames = twin.odometry_frames(reversed(messages), fps=10)
     assert [round(f.t, 6) for f in frames] == [k / 10 for k in range(11)]
-    assert frames[-1].x == pytest.approx(0.2 - 0.2) and frames[-1].yaw == 0.0
+    assert frames[-1].x == pytest.approx(0.2) and frames[-1].yaw == 0.0
     # both wheels rolled 0.2 m: 0.2 / r = 5 rad
     assert frames[-1].left_wheel == pytest.approx(5.0) == frames[-1].right_wheel
 

@@ -417,7 +417,7 @@ def test_twin_frames_carry_the_urdf_base_pose_and_the_wheel_angles() -> None:
     frames = sim.twin_frames(period=0.5)
     assert [f.t for f in frames] == pytest.approx([0.0, 0.5, 1.0])
     last = frames[-1]
-    # the box centre is 0.2 m behind the axle: after a quarter turn left it is at (0, -0.2)
-    assert (last.x, last.y, last.yaw) == pytest.approx((0.0, -0.2, math.pi / 2), abs=1e-9)
+    # base_link, the axle's middle, turned on the spot: still at the origin, facing +y
+    assert (last.x, last.y, last.yaw) == pytest.approx((0.0, 0.0, math.pi / 2), abs=1e-9)
     spin = math.pi / 2 * 0.2 / 0.04  # w L/2 / r for 1 s
     assert (last.left_wheel, last.right_wheel) == pytest.approx((-spin, spin))

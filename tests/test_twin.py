@@ -45,10 +45,38 @@ def test_the_packaged_urdf_has_the_simulators_dimensions(bot) -> None:
     left = bot.position("left_wheel")
     right = bot.position("right_wheel")
     assert left[1] - right[1] == pytest.approx(geometry.wheel_separation)
-    assert left[0] == pytest.approx(geometry.axle_offset) == right[0]
     wheel = bot.model.robot.links[bot.links.index("left_wheel")].visuals[0].geometry
     assert float(wheel.cylinder.radius) == pytest.approx(geometry.wheel_radius)
+    (box,) = bot.model.link_map["base_link"].visuals
+    assert [float(v) for v in box.geometry.box.size[:2]] == [geometry.length, geometry.width]
+    assert box.origin[0, 3] == pytest.approx(geometry.box_x), "the box behind the axle"
     assert robots.DIFF_DRIVE_URDF.is_file() and robots.DIFF_DRIVE_URDF.parent.name == "robots"
+
+
+def test_the_urdfs_base_link_is_the_middle_of_the_wheel_axle(bot) -> None:
+    """One base_link (REP 105): the URDF's is the simulator's and odometry's, the middle of
+    the axle, so the wheel joints sit symmetric about its origin with no x or z offset."""
+    left = bot.position("left_wheel")
+    right = bot.position("right_wheel")
+    np.testing.assert_allclose((left + right) / 2, [0.0, 0.0, 0.0], atol=1e-12)
+    assert left[1] == pytest.approx(-right[1]) and left[1] > 0
+    # it turns on the spot about that point: the twin's base_link follows the sim's pose
+    sim = DiffDriveSim()
+    sim.command(0.0, 1.0)
+    sim.run(1.0)
+    assert (sim.pose.x, sim.pose.y) == pytest.approx((0.0, 0.0), abs=1e-12)
+
+
+def test_the_twin_puts_the_simulators_pose_on_base_link_with_no_offset(bot) -> None:
+    sim = drive_arc()
+    frame = twin.current_frame(sim)
+    assert (frame.x, frame.y, frame.yaw) == (sim.pose.x, sim.pose.y, sim.pose.yaw)
+    for recorded, sampled in zip(sim.twin_frames(0.5), sim.trajectory.sample(0.5).x):
+        assert recorded.x == sampled
+    poses = twin.final_poses(decoded(twin.record(sim, fps=15)), bot.name)
+    base = poses["base_link"]
+    assert (base[0, 3], base[1, 3]) == pytest.approx((sim.pose.x, sim.pose.y), abs=1e-9)
+    assert math.atan2(base[1, 0], base[0, 0]) == pytest.approx(sim.pose.yaw, abs=1e-9)
 
 
 def test_a_positive_wheel_angle_rolls_the_urdf_wheel_forwards(bot) -> None:
@@ -97,8 +125,8 @@ def test_recorded_twin_animates_every_frame_and_draws_the_world(bot) -> None:
     base = next(a for a in animation["animations"] if a["path"] == "/meshcat/bot")
     keys = base["clip"]["tracks"][0]["keys"]
     assert len(keys) == int(sim.time * 10) + 1 and base["clip"]["fps"] == 10
-    # the first frame: the start pose, box centre 0.2 m behind the axle, standing
-    assert keys[0]["value"] == pytest.approx([-0.2, 0.0, 0.09])
+    # the first frame: the start pose, base_link (the axle) a wheel radius above the floor
+    assert keys[0]["value"] == pytest.approx([0.0, 0.0, 0.04])
     walls = [c for c in commands if c["type"] == "set_object" and "/meshcat/world/" in c["path"]]
     assert len(walls) == 4, "the arena's four walls"
 

@@ -85,7 +85,7 @@ def test_wheel_frame_is_rolled_by_rpy_half_pi() -> None:
     """rpy (pi/2, 0, 0): the wheel's y axis is the base's z, its z axis the base's -y."""
     pose = urdf.load(DIFF_DRIVE).pose("right_wheel")
     expected = np.array(
-        [[1, 0, 0, 0.2], [0, 0, -1, -0.2], [0, 1, 0, -0.05], [0, 0, 0, 1]], dtype=float
+        [[1, 0, 0, 0.0], [0, 0, -1, -0.2], [0, 1, 0, 0.0], [0, 0, 0, 1]], dtype=float
     )
     np.testing.assert_allclose(pose, expected, atol=1e-6)
 
@@ -93,11 +93,11 @@ def test_wheel_frame_is_rolled_by_rpy_half_pi() -> None:
 def test_turning_a_wheel_turns_its_frame_but_not_its_centre() -> None:
     robot = urdf.load(DIFF_DRIVE)
     turned = robot.pose("left_wheel", {"base_link_left_wheel": math.pi / 2})
-    np.testing.assert_allclose(turned[:3, 3], [0.2, 0.2, -0.05], atol=1e-9)
+    np.testing.assert_allclose(turned[:3, 3], [0.0, 0.2, 0.0], atol=1e-9)
     # The rim point that was at the wheel's +x (base +x, the front) is now at the top:
     # axis 0 0 -1 in a frame whose z is the base's -y is a turn about +y (rolling forward).
     rim = turned @ np.array([0.04, 0, 0, 1])
-    np.testing.assert_allclose(rim[:3], [0.2, 0.2, -0.05 - 0.04], atol=1e-6)
+    np.testing.assert_allclose(rim[:3], [0.0, 0.2, -0.04], atol=1e-6)
     np.testing.assert_allclose(robot.axis_in_root("base_link_left_wheel"), [0, 1, 0], atol=1e-6)
 
 

@@ -54,7 +54,7 @@ MISTAKES = {
     ),
     "missing caster": (('<child link="caster"/>', '<child link="castor"/>'), "not a valid URDF"),
     "laser misplaced": (
-        ('<origin xyz="0.2 0 0.06"/>', '<origin xyz="0.2 0 0.6"/>'),
+        ('<origin xyz="0 0 0.11"/>', '<origin xyz="0 0 0.6"/>'),
         "laser_frame is at",
     ),
     "laser moving": (
@@ -62,8 +62,18 @@ MISTAKES = {
         "(base_link -> laser_frame) is 'continuous'; the lab's laser_frame is attached",
     ),
     "wheels exchanged": (
-        ('<origin xyz="0.2 0.2 -0.05"', '<origin xyz="0.2 -0.2 -0.05"'),
+        ('<origin xyz="0 0.2 0"', '<origin xyz="0 -0.2 0"'),
         "(left is +y, right is -y)",
+    ),
+    "box centred on base_link": (
+        ('      <origin xyz="-0.2 0 0.05"/>\n', ""),
+        "base_link's box is centred at (0, 0, 0) in base_link, expected (-0.2, 0, 0.05) (give "
+        "its <visual> an <origin xyz>); base_link is the middle of the wheel axle",
+    ),
+    "wheels placed from the box's centre": (
+        ('<origin xyz="0 0.2 0" rpy', '<origin xyz="0.2 0.2 -0.05" rpy'),
+        "'left_wheel''s centre is at (0.2, 0.2, -0.05) in base_link, expected (0, 0.2, 0); "
+        "base_link is the middle of the wheel axle",
     ),
     "small wheels": (('radius="0.04" length="0.05"', 'radius="0.03" length="0.05"'), "radius 0.03"),
     "caster floating": (('<sphere radius="0.04"/>', '<sphere radius="0.02"/>'), "would not stand"),

@@ -117,11 +117,11 @@ def test_base_pose_moves_the_whole_robot(bot: urdf.Robot) -> None:
 
 
 def test_a_standing_robot_rests_its_wheels_and_caster_on_the_floor(bot: urdf.Robot) -> None:
-    assert viz.lowest_point(bot) == pytest.approx(-0.09, abs=1e-6)
+    assert viz.lowest_point(bot) == pytest.approx(-0.04, abs=1e-6)
     view = viz.RobotView(bot)
     view.set_base_pose(0.5, 0.0, 1.0)
     placed = matrix(last(view.scene().commands, "set_transform", "/meshcat/bot"))
-    assert placed[2, 3] == pytest.approx(0.09, abs=1e-6), "base_link is 0.09 m above the floor"
+    assert placed[2, 3] == pytest.approx(0.04, abs=1e-6), "base_link is r above the floor"
 
 
 def test_frames_are_triads_that_can_be_hidden(bot: urdf.Robot) -> None:
@@ -144,7 +144,7 @@ def test_an_animation_has_a_track_for_every_link_and_the_base(bot: urdf.Robot) -
     clip = next(a["clip"] for a in animation["animations"] if a["path"] == "/meshcat/bot")
     position = next(t for t in clip["tracks"] if t["name"] == ".position")
     assert [k["time"] for k in position["keys"]] == list(range(10))
-    assert position["keys"][-1]["value"] == pytest.approx([0.09, 0.0, 0.09])  # standing
+    assert position["keys"][-1]["value"] == pytest.approx([0.09, 0.0, 0.04])  # standing
 
 
 @pytest.mark.parametrize(

@@ -19,12 +19,19 @@ from rosbook.robots.urdf import Robot, URDFError
 from rosbook.viz import scene as viz
 
 #: The lab's robot (the lecture's): base box, wheels, caster, as stated in the lab.
+#: base_link is the middle of the wheel axle (as the simulator and odometry have it).
 BASE_SIZE = (0.6, 0.3, 0.1)
+BASE_CENTRE = (-0.2, 0.0, 0.05)
 WHEEL_RADIUS = 0.04
 WHEEL_LENGTH = 0.05
-WHEEL_CENTRES = {"left_wheel": (0.2, 0.2, -0.05), "right_wheel": (0.2, -0.2, -0.05)}
-FLOOR_Z = -0.09
-LASER_FRAME = (0.2, 0.0, 0.06)
+WHEEL_CENTRES = {"left_wheel": (0.0, 0.2, 0.0), "right_wheel": (0.0, -0.2, 0.0)}
+FLOOR_Z = -0.04
+LASER_FRAME = (0.0, 0.0, 0.11)
+#: What a place error adds when the robot was written around another origin.
+AXLE_HINT = (
+    "; base_link is the middle of the wheel axle, so the wheel centres are at x = 0, z = 0 "
+    "and the other parts are placed from there"
+)
 
 
 def _fmt(values: Sequence[float]) -> str:
@@ -164,6 +171,11 @@ def assert_diff_drive_dimensions(robot: Robot) -> None:
     assert np.allclose(size, BASE_SIZE, atol=1e-6), (
         f"base_link's box is {_fmt(size)} m, expected {_fmt(BASE_SIZE)}"
     )
+    origin = np.eye(4) if base[0].origin is None else np.asarray(base[0].origin)
+    assert np.allclose(origin[:3, 3], BASE_CENTRE, atol=1e-3), (
+        f"base_link's box is centred at {_fmt(origin[:3, 3])} in base_link, expected "
+        f"{_fmt(BASE_CENTRE)} (give its <visual> an <origin xyz>){AXLE_HINT}"
+    )
     for wheel, centre in WHEEL_CENTRES.items():
         shape = _cylinder(robot, wheel)
         assert shape is not None, f"{wheel!r} has no <cylinder> visual"
@@ -180,7 +192,7 @@ def assert_diff_drive_dimensions(robot: Robot) -> None:
             + (
                 " (left is +y, right is -y)"
                 if np.allclose(got, np.multiply(centre, (1, -1, 1)), atol=1e-3)
-                else ""
+                else AXLE_HINT
             )
         )
     laser = robot.position("laser_frame")

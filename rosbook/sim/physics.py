@@ -1,13 +1,13 @@
 """A 2D differential-drive robot in Pymunk: the book's stand-in for Gazebo.
 
 The robot is the lecture's: a 0.6 m x 0.3 m base, two driven wheels of radius 0.04 m
-on one axle and a caster at the back. In the lecture's URDF the wheel joints sit at
-``xyz="0.2 -0.2 -0.05"`` (and ``0.2 0.2 -0.05``), so the wheels are 0.4 m apart and
-their axle is 0.2 m ahead of the box centre.
+on one axle and a caster at the back. In the lecture's URDF ``base_link`` is the middle
+of the axle, the wheel joints sit at ``xyz="0 0.2 0"`` and ``0 -0.2 0``, so the wheels are
+0.4 m apart, and the box's centre is 0.2 m behind the axle.
 
-The simulator's reference point (``base_link``, the pose ``odom`` reports) is the
-middle of the axle, as for every differential-drive base in ROS: turning in place
-turns about it, and a constant (v, w) moves it on a circle of radius v / w.
+The simulator's reference point (``base_link``, the pose ``odom`` reports) is that same
+frame, the middle of the axle, as for every differential-drive base in ROS: turning in
+place turns about it, and a constant (v, w) moves it on a circle of radius v / w.
 
 Each physics step (a fixed ``dt`` of 5 ms by default, never the wall clock) turns the
 command into wheel speeds through :mod:`rosbook.sim.diff_drive`, limits them like a motor
@@ -47,10 +47,11 @@ class RobotGeometry:
     wheel_width: float = 0.05
     #: Wheels at y = +-0.2 m in the lecture's URDF.
     wheel_separation: float = 0.4
-    #: The axle is this far ahead of the box centre (URDF wheel joints at x = 0.2).
-    axle_offset: float = 0.2
-    #: The caster, behind the box centre.
-    caster_offset: float = -0.22
+    #: The base box's centre along x in base_link (the axle's middle): 0.2 m behind it,
+    #: where the URDF's base_link visual has its ``<origin>``.
+    box_x: float = -0.2
+    #: The caster's centre along x in base_link, behind the box's centre.
+    caster_x: float = -0.42
     caster_radius: float = 0.03
     mass: float = 5.0
     #: Motor limit: wheel speeds are scaled down together beyond it (keeps the curvature).
@@ -58,8 +59,8 @@ class RobotGeometry:
 
     def footprint(self) -> list[tuple[float, float]]:
         """Corners of the base, in the base_link frame (axle middle at the origin)."""
-        back = -self.axle_offset - self.length / 2
-        front = -self.axle_offset + self.length / 2
+        back = self.box_x - self.length / 2
+        front = self.box_x + self.length / 2
         half = self.width / 2
         return [(back, -half), (front, -half), (front, half), (back, half)]
 
@@ -178,7 +179,7 @@ class Pose:
 
 @dataclass(frozen=True)
 class TwinFrame:
-    """One frame of a recorded run: URDF base_link pose and the wheels' joint angles."""
+    """One frame of a recorded run: base_link's pose and the wheels' joint angles."""
 
     t: float
     x: float
@@ -289,7 +290,7 @@ class DiffDriveSim:
             pymunk.Poly(self.body, g.footprint()),
             pymunk.Poly(self.body, g.wheel_box(+1)),
             pymunk.Poly(self.body, g.wheel_box(-1)),
-            pymunk.Circle(self.body, g.caster_radius, (g.caster_offset - g.axle_offset, 0.0)),
+            pymunk.Circle(self.body, g.caster_radius, (g.caster_x, 0.0)),
         ]
         for shape in self.robot_shapes:
             shape.filter = robot_filter
@@ -304,13 +305,13 @@ class DiffDriveSim:
         self._ray_filter = pymunk.ShapeFilter(mask=WORLD_CATEGORY)
         self._edges = _world_edges(self.world)
         corners = g.footprint() + g.wheel_box(+1) + g.wheel_box(-1)
-        self._reach = 0.01 + max(math.hypot(px + g.axle_offset, py) for px, py in corners)
+        self._reach = 0.01 + max(math.hypot(px - g.box_x, py) for px, py in corners)
         if self._overlap() is not None:
             raise ValueError(f"the start pose {self.world.start} overlaps a wall or an obstacle")
 
     def _overlap(self) -> tuple[float, float] | None:
         """A contact point if the robot at its current pose overlaps the world."""
-        centre = self.body.local_to_world((-self.geometry.axle_offset, 0.0))
+        centre = self.body.local_to_world((self.geometry.box_x, 0.0))
         if self.space.point_query_nearest(centre, self._reach, self._ray_filter) is None:
             return None  # nothing within the robot's bounding circle: free
         self.space.reindex_shapes_for_body(self.body)
@@ -359,25 +360,20 @@ class DiffDriveSim:
         """Whether the last attempted move ran into something."""
         return self._touching
 
-    def box_centre(self, pose: Pose | None = None) -> Pose:
-        """The base box's centre (the lecture URDF's base_link) for a base_link pose."""
-        pose = pose or self.pose
-        off = self.geometry.axle_offset
-        return Pose(pose.x - off * math.cos(pose.yaw), pose.y - off * math.sin(pose.yaw), pose.yaw)
-
     def twin_frames(self, period: float = 0.05) -> list[TwinFrame]:
         """The run every ``period`` s as the URDF model needs it (a digital twin's input).
 
-        The lecture URDF's ``base_link`` is the box centre, not the axle middle, so each
-        frame carries the box centre's pose and both wheel angles (radians, positive
+        Each frame carries the pose of ``base_link`` (the URDF's and the simulator's are
+        the same frame, the axle's middle) and both wheel angles (radians, positive
         rolling forwards).
         """
-        frames = []
         sampled = self.trajectory.sample(period)
-        for i, t in enumerate(sampled.t):
-            base = self.box_centre(Pose(sampled.x[i], sampled.y[i], sampled.yaw[i]))
-            frames.append(TwinFrame(t, base.x, base.y, base.yaw, sampled.left[i], sampled.right[i]))
-        return frames
+        return [
+            TwinFrame(
+                t, sampled.x[i], sampled.y[i], sampled.yaw[i], sampled.left[i], sampled.right[i]
+            )
+            for i, t in enumerate(sampled.t)
+        ]
 
     # -- commands -----------------------------------------------------------------
     def command(self, v: float, w: float) -> None:

@@ -9,10 +9,10 @@ each wheel angle turns its wheel joint. It works two ways:
 - live: :meth:`Twin.follow` runs a simulation and moves a live MeshCat view (a
   ``viz.live_visualizer()`` in JupyterLab) as the simulated time goes by.
 
-The simulator reports the middle of the axle (``odom``'s ``base_link``); the lecture
-URDF's ``base_link`` is the box's centre, 0.2 m behind it. ``DiffDriveSim.twin_frames``
-gives the box centre's pose, so the twin's wheels sit where the simulated wheels are.
-The wheel angles are positive rolling forwards, as the URDF's wheel joints turn.
+The simulator reports ``base_link`` (``odom``'s child frame), the middle of the axle; the
+lecture URDF's ``base_link`` is that same point, so each pose goes to the URDF's
+``base_link`` as it is, with no offset. The wheel angles are positive rolling forwards, as
+the URDF's wheel joints turn.
 """
 
 from __future__ import annotations
@@ -55,8 +55,8 @@ def joint_positions(frame: TwinFrame) -> dict[str, float]:
 
 
 def current_frame(physics: DiffDriveSim) -> TwinFrame:
-    """The simulator's state now, as a twin frame (box centre pose, wheel angles)."""
-    base = physics.box_centre()
+    """The simulator's state now, as a twin frame (base_link's pose, wheel angles)."""
+    base = physics.pose
     left, right = physics.wheel_angles
     return TwinFrame(physics.time, base.x, base.y, base.yaw, left, right)
 
@@ -215,13 +215,13 @@ def odometry_frames(
     """Twin frames from ``odom`` messages (a bag's, played back or read), ``fps`` per
     second of their stamps.
 
-    Each frame's pose is a message's (moved from the axle's middle to the box centre);
-    the wheel angles, which ``Odometry`` does not carry, are integrated from each
-    message's twist through the kinematics. The last message always gives the last
+    Each frame's pose is a message's (its ``base_link`` is the URDF's); the wheel angles,
+    which ``Odometry`` does not carry, are integrated from each message's twist through
+    the kinematics. The last message always gives the last
     frame, so the twin ends where the recording ended.
     """
     geometry = geometry or RobotGeometry()
-    r, sep, off = geometry.wheel_radius, geometry.wheel_separation, geometry.axle_offset
+    r, sep = geometry.wheel_radius, geometry.wheel_separation
     frames: list[TwinFrame] = []
     left = right = 0.0
     last_t: float | None = None
@@ -235,9 +235,7 @@ def odometry_frames(
             left, right = left + w_left * (t - last_t), right + w_right * (t - last_t)
         last_t = t
         p, yaw = msg.pose.pose.position, yaw_of(msg)
-        pending = TwinFrame(
-            t, p.x - off * math.cos(yaw), p.y - off * math.sin(yaw), yaw, left, right
-        )
+        pending = TwinFrame(t, p.x, p.y, yaw, left, right)
         if not frames or t >= frames[0].t + len(frames) / fps - 1e-9:
             frames.append(pending)
             pending = None
