@@ -8,7 +8,6 @@ import json
 import os
 import shutil
 import subprocess
-import sys
 import tempfile
 from collections.abc import Iterator
 from pathlib import Path
@@ -22,25 +21,21 @@ from autograder.feedback import GRADER_ERROR, GRADER_ERROR_FEEDBACK
 from autograder.kernels import IpcKernelManager
 from autograder.worker import grader_failure
 from tests.labtools import answered, grade_rows, submit
+from tests.test_grading_runs import HANG, LAB, grade_cmd
 
-LAB = "lab01_nodes_topics"
-HANG = 900.0  # seconds: only a guard against a hung run, never a verdict
 ACCUSING = "A cell must never end the interpreter"
 
 as_root = pytest.mark.skipif(os.geteuid() != 0, reason="the sandbox is another user only as root")
 
 
-def grade_cmd(submissions: Path, out: Path, *extra: str) -> list[str]:
-    return [
-        sys.executable,
-        "-m",
-        "autograder",
-        "grade",
-        str(submissions),
-        "--out",
-        str(out),
-        *extra,
-    ]
+def grade_from(
+    checkout: Path, submissions: Path, out: Path, *extra: str, env: dict[str, str] | None = None
+) -> subprocess.CompletedProcess[str]:
+    """``python -m autograder grade`` run from ``checkout``."""
+    command = [*grade_cmd(submissions, out), *extra]
+    return subprocess.run(
+        command, capture_output=True, text=True, cwd=checkout, timeout=HANG, env=env
+    )
 
 
 @pytest.fixture
@@ -57,14 +52,7 @@ def test_a_private_tmpdir_grades_correctly(private_tmp: Path, tmp_path: Path) ->
     submissions = tmp_path / "submitted"
     submit(submissions, "alice", LAB, answered(LAB))
     out = tmp_path / "out"
-    done = subprocess.run(
-        [*grade_cmd(submissions, out), "--assignment", LAB],
-        capture_output=True,
-        text=True,
-        cwd=ROOT,
-        timeout=HANG,
-        env={**os.environ, "TMPDIR": str(private_tmp)},
-    )
+    done = grade_from(ROOT, submissions, out, env={**os.environ, "TMPDIR": str(private_tmp)})
     assert done.returncode == 0, done.stderr
     row = grade_rows(out)[("alice", LAB)]
     assert row["status"] == "ok" and float(row["score"]) == float(row["max_score"]) == 10, row
@@ -111,13 +99,7 @@ def test_an_unimportable_project_stops_grading_before_the_first_row(
     submissions = tmp_path / "submitted"
     submit(submissions, "alice", LAB, answered(LAB))
     out = tmp_path / "out"
-    done = subprocess.run(
-        grade_cmd(submissions, out),
-        capture_output=True,
-        text=True,
-        cwd=other_checkout,
-        timeout=HANG,
-    )
+    done = grade_from(other_checkout, submissions, out)
     assert done.returncode == 2, done
     said = done.stderr.strip()
     assert len(said.splitlines()) == 1, said
@@ -168,22 +150,14 @@ def test_the_student_reads_a_neutral_message_and_resume_grades_it_again(
     submissions = tmp_path / "submitted"
     submit(submissions, "carol", LAB, '{"cells": [ not JSON')  # graded without a kernel
     out = tmp_path / "out"
-    first = subprocess.run(
-        grade_cmd(submissions, out), capture_output=True, text=True, cwd=ROOT, timeout=HANG
-    )
+    first = grade_from(ROOT, submissions, out)
     assert first.returncode == 0, first.stderr
     # that row as the grader's own failure (its sandbox did not start) left it
     journal = out / "results.jsonl"
     entry = json.loads(journal.read_text().splitlines()[-1])
     entry.update(status=GRADER_ERROR, message="The grader failed before any cell ran: bwrap: x")
     journal.write_text(json.dumps(entry) + "\n")
-    again = subprocess.run(
-        [*grade_cmd(submissions, out), "--resume"],
-        capture_output=True,
-        text=True,
-        cwd=ROOT,
-        timeout=HANG,
-    )
+    again = grade_from(ROOT, submissions, out, "--resume")
     assert again.returncode == 0, again.stderr
     assert grade_rows(out)[("carol", LAB)]["status"] == "error"  # graded again
     assert len(journal.read_text().splitlines()) == 2
