@@ -10,7 +10,8 @@ fix: the folder the sandbox's user cannot enter, the module it cannot import (a 
 installed from another checkout), or missing user namespaces.
 
 ``check(sandboxed=False)`` checks only the import, in an unsandboxed process as
-``make lab``'s kernels are. A course server's spawner calls ``check()`` once at start.
+``make lab``'s kernels are. A course server's spawner calls ``once()`` before each start
+(the probe runs the first time only).
 """
 
 from __future__ import annotations
@@ -173,3 +174,14 @@ def _check_imports(found: Mapping[str, str], who: str) -> None:
                 f"Cannot grade here: {who} cannot import {module} from this checkout "
                 f"({root}): {elsewhere}. Fix: {fix}."
             )
+
+
+_ready: list[float] = []
+
+
+def once(env: Mapping[str, str] | None = None) -> float:
+    """``check``, the first time in this process only (a course server's spawner calls it
+    before each start): raises ``NotReady`` until a check has passed."""
+    if not _ready:
+        _ready.append(check(env))
+    return _ready[0]

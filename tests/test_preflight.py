@@ -112,6 +112,8 @@ def test_the_preflight_passes_here_and_is_cheap() -> None:
     seconds = preflight.check()
     assert seconds < 60, f"timeout: the preflight took {seconds:.1f} s"  # a hang guard only
     assert preflight.check(sandboxed=False) < 60
+    first = preflight.once()  # a spawner's: the probe's seconds of its first (only) run
+    assert preflight.once() == first and preflight._ready == [first]
 
 
 class Unenterable(IpcKernelManager):
