@@ -47,6 +47,7 @@ stress: $(STAMP)
 LAB_DIR ?= labs
 LAB_ARGS ?=
 lab: $(STAMP)
+	$(BIN)/python -m autograder preflight --unsandboxed
 	$(ISOLATED) $(BIN)/jupyter lab --config=rosbook/jupyterlab_config.py $(LAB_ARGS) $(LAB_DIR)
 
 ## hub: the course server: JupyterHub at HUB_URL, each student's JupyterLab sandboxed on a

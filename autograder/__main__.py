@@ -16,7 +16,16 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python -m autograder", description=__doc__)
     sub = parser.add_subparsers(dest="command", required=True)
 
-    g = sub.add_parser("grade", help="grade a folder of submissions")
+    g = sub.add_parser(
+        "grade",
+        help="grade a folder of submissions",
+        description="Grade a folder of submissions into OUT/grades.csv. Before the first "
+        "submission it checks that a sandboxed kernel starts here and imports the project "
+        "(`python -m autograder preflight`), and stops with the cause and the fix if not. "
+        "A row's status: ok, timeout, error (the notebook failed: the student's), missing, "
+        "tampered, or grader_error (the grader failed before any cell ran, e.g. its "
+        "sandbox did not start: never the student's; --resume grades it again).",
+    )
     g.add_argument("submissions", type=Path, help="SUBMISSIONS/<student>/<lab>/<lab>.ipynb")
     g.add_argument("--assignment", help="grade only this lab (default: every lab found)")
     g.add_argument("--workers", type=int, default=2, help="submissions graded at once")
@@ -59,7 +68,20 @@ def main(argv: list[str] | None = None) -> int:
     c.add_argument("--timeout", type=int, default=CELL_TIMEOUT_S, help="seconds per cell")
     c.add_argument("--log", type=Path, help="where the nodes' log lines go")
 
+    pre = sub.add_parser(
+        "preflight", help="check that a sandboxed kernel can start here and import the project"
+    )
+    pre.add_argument(
+        "--unsandboxed", action="store_true", help="check an unsandboxed kernel (make lab's)"
+    )
+
     args = parser.parse_args(argv)
+    if args.command == "preflight":
+        seconds = ready(sandboxed=not args.unsandboxed)
+        if seconds is None:
+            return 2
+        print(f"preflight: kernels can start here and import the project ({seconds:.1f} s)")
+        return 0
     if args.command == "grade":
         return grade(args, argv if argv is not None else sys.argv[1:])
     if args.command == "labs":
@@ -77,13 +99,28 @@ def main(argv: list[str] | None = None) -> int:
     if not path.is_file():
         print(f"error: no notebook at {path}", file=sys.stderr)
         return 2
+    if ready() is None:
+        return 2
     run = check(path.resolve(), args.timeout, args.log)
     print(report(path, run))
     return 0 if run.passed else 1
 
 
+def ready(sandboxed: bool = True) -> float | None:
+    """Run the preflight (``autograder.preflight``): its seconds, or None once its one
+    message is printed."""
+    from autograder import preflight
+
+    try:
+        return preflight.check(sandboxed=sandboxed)
+    except preflight.NotReady as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return None
+
+
 def grade(args: argparse.Namespace, argv: list[str]) -> int:
     from autograder.grade import STATUSES, GradingError, Interrupted, grade_class
+    from autograder.preflight import NotReady
 
     students = [s for value in args.student or [] for s in value.split(",") if s.strip()]
     # Ctrl-C, and SIGTERM (a scheduler, a closed session), stop cleanly, rows kept; also
@@ -102,7 +139,7 @@ def grade(args: argparse.Namespace, argv: list[str]) -> int:
             students=[s.strip() for s in students],
             scheduler=args.scheduler,
         )
-    except GradingError as exc:
+    except (GradingError, NotReady) as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
     except Interrupted as exc:

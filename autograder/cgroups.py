@@ -302,18 +302,27 @@ def _limit_v1(folders: dict[str, Path], cpus: float, ram: int, processes: int) -
         _write(folders["pids"] / "pids.max", str(processes))
 
 
+def _fresh_name(label: str, parents: list[Path]) -> str:
+    """``<label>-<ns>x<pid>-<n>`` that none of ``parents`` holds. A grader that is gone
+    may have left its folder with the same name (pids are reused, and a folder whose
+    processes are still dying is not swept): a sandbox never joins another's cgroup."""
+    while True:
+        name = f"{label}-{_namespace()}x{os.getpid()}-{next(_counter)}"
+        if not any(os.path.lexists(parent / name) for parent in parents):
+            return name
+
+
 def create(label: str, cpus: float, ram: int, processes: int) -> Cgroup | None:
     """A new cgroup with these limits for one sandbox, or None (said once) if none can
     be made here."""
     safe = re.sub(r"[^A-Za-z0-9_.]", "_", label)
-    name = f"{safe}-{_namespace()}x{os.getpid()}-{next(_counter)}"
     mounts, groups = _mounts(), own()
     reasons = []
     if "v2" in mounts and "v2" in groups:
         parent, reason = _v2_parent(mounts["v2"], groups["v2"])
         if parent is not None:
             _sweep(parent)
-            folder = parent / name
+            folder = parent / _fresh_name(safe, [parent])
             folder.mkdir()
             try:
                 _limit_v2(folder, cpus, ram, processes)
@@ -323,15 +332,24 @@ def create(label: str, cpus: float, ram: int, processes: int) -> Cgroup | None:
             return Cgroup(2, {"v2": folder})
         reasons.append(reason)
     folders: dict[str, Path] = {}
+    parents: dict[str, Path] = {}
+    for controller in (*CONTROLLERS, "cpuacct"):
+        if controller not in mounts or controller not in groups:
+            continue
+        parent = mounts[controller] / groups[controller].lstrip("/") / "rosbook"
+        try:
+            parent.mkdir(exist_ok=True)
+            _sweep(parent)
+        except OSError as exc:
+            reasons.append(f"cgroup v1 {controller}: {exc.strerror} ({parent})")
+            continue
+        parents[controller] = parent
+    name = _fresh_name(safe, list(parents.values()))
     try:
-        for controller in (*CONTROLLERS, "cpuacct"):
-            if controller not in mounts or controller not in groups:
-                continue
-            parent = mounts[controller] / groups[controller].lstrip("/") / "rosbook"
+        for controller, parent in parents.items():
             try:
-                parent.mkdir(exist_ok=True)
-                _sweep(parent)
-                (parent / name).mkdir(exist_ok=True)
+                # a controller mounted with another (cpu,cpuacct) has the folder already
+                (parent / name).mkdir(exist_ok=(parent / name) in folders.values())
             except OSError as exc:
                 reasons.append(f"cgroup v1 {controller}: {exc.strerror} ({parent})")
                 continue

@@ -48,7 +48,17 @@ NOTICE_STYLE = (
     "margin:1em 0;padding:.8em 1em;border-left:6px solid {color};background:#fafafa;"
     "font-family:sans-serif;white-space:pre-wrap"
 )
-COLORS = {"ok": "#2e7d32", "timeout": "#ef6c00", "tampered": "#c62828"}
+COLORS = {"ok": "#2e7d32", "timeout": "#ef6c00", "tampered": "#c62828", "grader_error": "#546e7a"}
+
+#: The status of a submission the grader itself failed on (its sandbox or kernel did
+#: not start, the grader raised): the row's message is for the instructor, the student
+#: reads ``GRADER_ERROR_FEEDBACK``, and ``--resume`` grades it again.
+GRADER_ERROR = "grader_error"
+GRADER_ERROR_FEEDBACK = (
+    "Your notebook could not be graded this time because of a problem on the grading "
+    "machine, before any of your cells ran: nothing in your notebook caused it. Your "
+    "instructor sees this and will grade it again."
+)
 
 
 def notice_html(title: str, message: str, status: str) -> str:
@@ -74,7 +84,10 @@ def add_notice(feedback_html: Path, title: str, message: str, status: str) -> No
 def write_notice_page(
     path: Path, student_id: str, assignment_id: str, title: str, message: str, status: str
 ) -> None:
-    """Feedback for a submission nbgrader could not grade (missing, broken, killed)."""
+    """Feedback for a submission nbgrader could not grade (missing, broken, killed); for
+    the grader's own failure the student reads ``GRADER_ERROR_FEEDBACK``, never
+    ``message`` (the instructor's, in the row)."""
+    message = GRADER_ERROR_FEEDBACK if status == GRADER_ERROR else message
     path.parent.mkdir(parents=True, exist_ok=True)
     heading = html.escape(f"{assignment_id}: feedback for {student_id}")
     path.write_text(

@@ -32,9 +32,10 @@ from typing import TextIO
 import nbformat
 from nbgrader.api import Gradebook
 
+from autograder import preflight
 from autograder.config import CELL_TIMEOUT_S, SOLUTIONS, lab_ids
 from autograder.course import generate
-from autograder.feedback import write_notice_page
+from autograder.feedback import GRADER_ERROR, write_notice_page
 from autograder.gradebook import CellComment, CellGrade, add_assignment, read_scratch
 from autograder.gradebook import record as record_in_gradebook
 from autograder.judge import shared_env
@@ -53,7 +54,7 @@ from rosbook.runtime.isolation import (
     reserve_domain,
 )
 
-STATUSES = ("ok", "timeout", "error", "missing", "tampered")
+STATUSES = ("ok", "timeout", "error", "missing", "tampered", GRADER_ERROR)
 Files = dict[str, bytes]  # a submission folder's files by relative path
 
 
@@ -321,7 +322,7 @@ class WorkerSlot:
             tail = "\n".join(Path(job.log).read_text(errors="replace").splitlines()[-10:])
             return {
                 "score": 0,
-                "status": "error",
+                "status": GRADER_ERROR,
                 "message": f"The grader's worker died on this submission:\n{tail}",
             }
         return json.loads(line)
@@ -468,9 +469,12 @@ def grade_class(
     is graded. ``resume`` keeps the rows already in ``out`` whose submission is
     unchanged; ``students`` regrades only those, leaving the others' rows as they are.
     ``scheduler`` (a Dask scheduler's address) grades on its workers instead of here.
-    Raises ``Interrupted`` on Ctrl-C once what it started is stopped.
+    Raises ``Interrupted`` on Ctrl-C once what it started is stopped, and
+    ``preflight.NotReady`` before grading anything when no kernel can run here.
     """
     everyone, assignment_ids = discover(submissions, assignment_id)
+    if not scheduler:  # before any row: a sandbox that cannot start grades nobody
+        preflight.check()
     kill_orphans()  # what a grading run killed before (SIGKILL, power loss) left behind
     chosen = select_students(everyone, students)
     out.mkdir(parents=True, exist_ok=True)
@@ -690,14 +694,14 @@ def run_dask(
 
 
 def not_graded(assignment: Assignment, student_id: str, message: str) -> Graded:
-    """The "error" result of a submission the grader itself failed on."""
+    """The ``GRADER_ERROR`` result of a submission the grader itself failed on."""
     with tempfile.TemporaryDirectory() as tmp:
         page = Path(tmp) / "feedback.html"
         write_notice_page(
-            page, student_id, assignment.assignment_id, "Could not grade", message, "error"
+            page, student_id, assignment.assignment_id, "Could not grade", message, GRADER_ERROR
         )
         feedback = page.read_bytes()
-    row = Row(student_id, assignment.assignment_id, 0, assignment.max_score, "error", message)
+    row = Row(student_id, assignment.assignment_id, 0, assignment.max_score, GRADER_ERROR, message)
     return Graded(row, None, [], feedback, b"", None)
 
 

@@ -111,6 +111,10 @@ class IpcKernelManager(AsyncUnixSocketKernelManager):
     def limits(self) -> sandbox.Limits:
         return sandbox.Limits(cpus=self.cpus, ram=self.ram, processes=self.processes)
 
+    def private_parent(self) -> str:
+        # the sandbox's user enters it (a private TMPDIR would stop bwrap: staging_base)
+        return sandbox.staging_base()
+
     @default("ip")
     def _ip_default(self) -> str:
         # "sockets" becomes a link to /proc/<sandbox>/root/run/kernel once it started

@@ -19,6 +19,8 @@ from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
 
+from autograder.feedback import GRADER_ERROR
+
 CSV_HEADER = ["student_id", "assignment_id", "score", "max_score", "status"]
 JOURNAL = "results.jsonl"
 _UMASK = os.umask(0o022)  # read once, at import (setting it is process-wide)
@@ -73,7 +75,12 @@ class Journal:
 
     def graded(self, student_id: str, assignment_id: str, digest: str) -> bool:
         entry = self.entries.get((student_id, assignment_id))
-        return entry is not None and entry.get("digest") == digest
+        # the grader's own failure is never a grade: graded again
+        return (
+            entry is not None
+            and entry.get("digest") == digest
+            and entry.get("status") != GRADER_ERROR
+        )
 
     def append(self, entry: dict[str, Any]) -> None:
         self._file.write((json.dumps(entry) + "\n").encode())

@@ -58,6 +58,7 @@ import shutil
 import signal
 import subprocess
 import sys
+import tempfile
 import time
 from collections.abc import Iterator, Mapping, Sequence
 from contextlib import contextmanager
@@ -146,6 +147,56 @@ def _unavailable(what: str, stderr: str) -> SandboxUnavailable:
 
 def _as_root() -> bool:
     return os.geteuid() == 0
+
+
+#: Where ``staging_base`` looks, after ``TMPDIR``, for a folder the sandbox can enter.
+STAGING_CANDIDATES = ("/tmp", "/var/tmp", "/dev/shm")
+
+
+def _enterable(path: Path, uid: int, gid: int) -> bool:
+    """Whether ``uid``/``gid`` (no supplementary groups) can pass through every folder
+    from ``/`` down to ``path`` (its mode bits; the sandbox's start proves the rest)."""
+    for folder in [path, *path.parents]:
+        try:
+            st = folder.stat()
+        except OSError:
+            return False
+        bit = 0o100 if st.st_uid == uid else 0o010 if st.st_gid == gid else 0o001
+        if not st.st_mode & bit:
+            return False
+    return True
+
+
+def blocking_folder(path: Path, uid: int = NOBODY, gid: int = NOBODY) -> Path | None:
+    """The first folder on the way to ``path`` that ``uid`` cannot enter; None."""
+    for folder in [*reversed(path.parents), path]:
+        if not _enterable(folder, uid, gid):
+            return folder
+    return None
+
+
+def staging_base(candidates: Sequence[str] | None = None) -> str:
+    """A folder for the grader's private folders (``prepare``'s ``private``), which the
+    sandbox's user must enter: the temporary folder (``TMPDIR``) when it can, else the
+    first of ``STAGING_CANDIDATES`` it can (a private ``TMPDIR``, mode 0700 as
+    ``pam_tmpdir`` makes, is fine when the grader is the sandbox's user outside, not
+    when it is root and the sandbox is nobody). Raises ``SandboxUnavailable`` naming the
+    folder and the fix when there is none."""
+    tmp = tempfile.gettempdir()
+    if not _as_root():
+        return tmp
+    for folder in [tmp, *(STAGING_CANDIDATES if candidates is None else candidates)]:
+        usable = os.path.isdir(folder) and os.access(folder, os.W_OK)
+        if usable and blocking_folder(Path(folder)) is None:
+            return folder
+    blocked = blocking_folder(Path(tmp))
+    raise SandboxUnavailable(
+        f"the sandbox's user (nobody, uid {NOBODY}) cannot enter {blocked}, on the way to "
+        f"the temporary folder {tmp}, and no other place for the sandbox's files "
+        f"({', '.join(STAGING_CANDIDATES if candidates is None else candidates)}) lets it in. "
+        f"Fix: `chmod o+x {blocked}`, or set TMPDIR to a folder every user can enter "
+        "(e.g. TMPDIR=/tmp)."
+    )
 
 
 def _drop_to_nobody() -> dict[str, object]:
@@ -740,7 +791,27 @@ def seed_late(pid: int, private: Path, folder: str | os.PathLike[str], limits: L
     )
 
 
+#: What a kernel imports: ``probe`` tells where each comes from.
+PROBED = ("ipykernel", "rosbook", "autograder.sandbox")
+
+
+def probe(modules: Sequence[str] = PROBED) -> None:
+    """Print, as JSON, the file each of ``modules`` is imported from (or its error)."""
+    import importlib
+
+    found: dict[str, str] = {}
+    for name in modules:
+        try:
+            found[name] = str(importlib.import_module(name).__file__)
+        except Exception as exc:  # noqa: BLE001 - reported, named, to the preflight
+            found[name] = f"!{type(exc).__name__}: {exc}"
+    print(json.dumps(found), flush=True)
+
+
 def main(argv: list[str]) -> None:
+    if argv == ["probe"]:
+        probe()
+        return
     split = argv.index("--")
     own, cmd = argv[:split], argv[split + 1 :]
     if own[0] == "join":
@@ -755,7 +826,10 @@ def main(argv: list[str]) -> None:
         options = dict(zip(own[1::2], own[2::2]))
         init(Limits(**json.loads(options["--limits"])), options.get("--seed"), cmd)
     else:
-        sys.exit(f"usage: python -m autograder.sandbox join|enter|init ... -- CMD (got {own[0]})")
+        sys.exit(
+            "usage: python -m autograder.sandbox join|enter|init ... -- CMD, or probe "
+            f"(got {own[0]})"
+        )
 
 
 if __name__ == "__main__":

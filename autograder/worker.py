@@ -28,7 +28,7 @@ from sqlalchemy.exc import SAWarning
 
 from autograder import kernels, sandbox
 from autograder.course import api
-from autograder.feedback import add_notice, cell_name, is_test_cell
+from autograder.feedback import GRADER_ERROR, add_notice, cell_name, is_test_cell
 from autograder.integrity import grading_code_changes
 from autograder.verdicts import Judged, apply_verdicts, judged_preprocessors, judging
 
@@ -168,6 +168,18 @@ def deduplicate_grade_ids(notebook: nbformat.NotebookNode) -> list[str]:
     return copied
 
 
+#: What nbgrader's log holds when the kernel never ran a cell: its sandbox or its start
+#: failed (jupyter_client's words, ``sandbox.SandboxUnavailable``, bwrap's own).
+NOT_STARTED = ("Kernel died before replying to kernel_info", "SandboxUnavailable", "bwrap: ")
+
+
+def grader_failure(log: str) -> str | None:
+    """The line of nbgrader's ``log`` saying the kernel never started (the grader's
+    failure, never the student's); None when it started."""
+    lines = [line.strip() for line in log.splitlines()]
+    return next((line for line in reversed(lines) for mark in NOT_STARTED if mark in line), None)
+
+
 def grade(job: Job) -> Result:
     scratch = Path(job.scratch)
     template = Path(job.template)
@@ -215,6 +227,12 @@ def grade(job: Job) -> Result:
     print(f"[grader] autograde took {time.monotonic() - started:.2f} s", flush=True)
     if not outcome["success"]:
         log = outcome.get("log", "") + outcome.get("error", "")
+        failure = grader_failure(log)
+        if failure:  # the sandbox's own words (bwrap's) are in the kernel's log: this job's
+            said = Path(job.log).read_text(errors="replace") if job.log else ""
+            cause = grader_failure(said) if failure != grader_failure(said) else None
+            said = f"{failure} ({cause})" if cause else failure
+            return Result(0, 0, GRADER_ERROR, f"The grader failed before any cell ran: {said}")
         if "DeadKernelError" in log or "Kernel died" in log or "kernel died" in log:
             culprits = exit_calls(submitted)
             where = f" Suspect line(s): {'; '.join(culprits)}." if culprits else ""

@@ -1,4 +1,4 @@
-"""Run the benchmarks: ``python -m benchmarks [topic ...]``.
+"""Run the benchmarks: ``python -m benchmarks [--quick] [--output PATH] [topic ...]``.
 
 Every topic runs, whatever the others do: a topic whose ``run()`` raises is reported
 as failed with its error (the figures it yielded before failing are kept), the table
@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import importlib
 import json
+import os
 import pkgutil
 import sys
 import time
@@ -20,6 +21,8 @@ from typing import Any
 import benchmarks
 
 OUTPUT = Path(__file__).resolve().parent.parent / "_build" / "bench.json"
+#: Where quick mode's figures go (never mixed with the real ones).
+QUICK_OUTPUT = OUTPUT.with_name("bench-quick.json")
 
 
 def topics() -> list[str]:
@@ -63,7 +66,14 @@ def show(record: dict[str, Any]) -> str:
     return f"{record['name']:<51} {record['value']:>12.4g} {record['unit']}"
 
 
-def main(argv: list[str], output: Path = OUTPUT) -> int:
+def main(argv: list[str], output: Path | None = None) -> int:
+    if "--quick" in argv:
+        argv = [a for a in argv if a != "--quick"]
+        os.environ[benchmarks.QUICK_ENV] = "1"
+    if "--output" in argv:  # --output PATH: where the figures go
+        at = argv.index("--output")
+        output, argv = Path(argv[at + 1]), argv[:at] + argv[at + 2 :]
+    output = output or (QUICK_OUTPUT if benchmarks.quick() else OUTPUT)
     chosen = argv or topics()
     unknown = sorted(set(chosen) - set(topics()))
     if unknown:

@@ -25,10 +25,10 @@ import sys
 import time
 from pathlib import Path
 
-from benchmarks import Figure
+from benchmarks import Figure, sized
 from rosbook.runtime.isolation import isolated_environ
 
-RUNS = 7
+RUNS = sized(7, 1)
 ROS2 = [str(Path(sys.executable).with_name("ros2"))]
 RCLPY_START = [
     sys.executable,

@@ -26,13 +26,13 @@ from jupyter_client import AsyncKernelManager
 from autograder.config import PACKAGE_DIR, SOLUTIONS
 from autograder.grade import grade_class
 from autograder.kernels import IpcKernelManager
-from benchmarks import Figure
+from benchmarks import Figure, sized
 from rosbook.runtime.isolation import run_isolated
 from rosbook.runtime.kernels import AsyncUnixSocketKernelManager
 from tests.labtools import answered, submit
 
 LAB = "lab01_nodes_topics"
-STUDENTS = [f"student_{i:02d}" for i in range(20)]
+STUDENTS = [f"student_{i:02d}" for i in range(sized(20, 2))]
 
 
 def plain_nbgrader_seconds(submissions: Path, work: Path) -> float:
@@ -79,7 +79,7 @@ async def kernel_round_trip(manager: AsyncKernelManager, folder: Path) -> float:
 def kernel_seconds(folder: Path) -> tuple[float, float]:
     """Median round trips (sandboxed, plain), interleaved so both see the same load."""
     sandboxed, plain = [], []
-    for _ in range(3):
+    for _ in range(sized(3, 1)):
         sandboxed.append(asyncio.run(kernel_round_trip(IpcKernelManager(), folder)))
         plain.append(asyncio.run(kernel_round_trip(AsyncUnixSocketKernelManager(), folder)))
     return statistics.median(sandboxed), statistics.median(plain)
@@ -107,7 +107,7 @@ def run() -> list[Figure]:
         Figure("kernel start + ROS node + stop, plain", plain, "s"),
         Figure("kernel sandboxed vs plain", sandboxed / plain, "ratio"),
         Figure("lab01 seconds per submission", statistics.median(r.seconds for r in rows), "s"),
-        Figure("lab01 grading 20 submissions, --workers 2", ours, "s"),
-        Figure("lab01 sequential nbgrader autograde of 20", baseline, "s"),
+        Figure(f"lab01 grading {len(STUDENTS)} submissions, --workers 2", ours, "s"),
+        Figure(f"lab01 sequential nbgrader autograde of {len(STUDENTS)}", baseline, "s"),
         Figure("lab01 grading vs sequential nbgrader", ours / baseline, "ratio"),
     ]

@@ -16,12 +16,12 @@ from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile
 from std_msgs.msg import String
 
-from benchmarks import Figure
+from benchmarks import Figure, sized
 from rosbook.demos import qos
 from rosbook.runtime.isolation import isolated_environ
 from rosbook.runtime.session import ros
 
-LATENCY_MESSAGES = 200
+LATENCY_MESSAGES = sized(200, 20)
 
 #: The receiving process: prints one latency (ns) per message, then exits.
 RECEIVER = """

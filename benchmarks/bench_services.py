@@ -24,12 +24,12 @@ from std_srvs.srv import Trigger
 
 from autograder.config import LABS, SOLUTIONS
 from autograder.grade import grade_class
-from benchmarks import Figure
+from benchmarks import Figure, sized
 from rosbook.runtime.isolation import isolated_environ
 from rosbook.runtime.session import ros
 
-CALLS = 200
-SUBMISSIONS = 2
+CALLS = sized(200, 20)
+SUBMISSIONS = sized(2, 1)
 LAB = "lab03_services_actions"
 
 

@@ -40,13 +40,13 @@ from rclpy.serialization import deserialize_message, serialize_message
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import LaserScan
 
-from benchmarks import Figure
+from benchmarks import Figure, sized
 from rosbook.runtime.isolation import isolated_environ
 from rosbook.runtime.session import ros
 from rosbook.sim.node import Simulation, yaw_of
 from rosbook.sim.physics import DiffDriveSim, World
 
-SIM_SECONDS = 20.0
+SIM_SECONDS = sized(20.0, 2.0)
 #: The lockstep's tick (the simulation's default): physics steps, sensors and callbacks.
 TICK_S = 0.02
 

@@ -9,12 +9,12 @@ from __future__ import annotations
 
 import time
 
-from benchmarks import Figure
+from benchmarks import Figure, sized
 from rosbook.sim.physics import DiffDriveSim
 from rosbook.viz import scene as viz
 from rosbook.viz import twin
 
-SECONDS = 26.0
+SECONDS = sized(26.0, 2.0)
 KB = 1e3
 
 

@@ -4,16 +4,22 @@ simulator's figures compare like with like."""
 from __future__ import annotations
 
 import json
+import subprocess
+import sys
 from pathlib import Path
 
 import pytest
 
 import benchmarks
-from benchmarks.__main__ import main
+from benchmarks.__main__ import main, topics
 from benchmarks.bench_sim import TICK_S, Wanderer, record, replay
 from rosbook.runtime.session import ros
 from rosbook.sim.node import Simulation
 from rosbook.sim.physics import World
+
+ROOT = Path(__file__).resolve().parent.parent
+#: A hang guard for one topic's quick mode (a book chapter builds in it), never a verdict.
+QUICK_HANG = 1800.0
 
 FINE = """
 from benchmarks import Figure
@@ -87,3 +93,21 @@ def test_sim_bench_replays_the_same_run_without_ros() -> None:
     assert replay(events, sim.physics) > 0
     with pytest.raises(RuntimeError, match="the replay ended at"):
         replay(sweeps, sim.physics)  # without its commands the robot stays where it started
+
+
+def run_quick(topic: str, output: Path) -> subprocess.CompletedProcess[str]:
+    """``python -m benchmarks --quick TOPIC``, its figures written to ``output``."""
+    command = [sys.executable, "-m", "benchmarks", "--quick", "--output", str(output), topic]
+    return subprocess.run(
+        command, capture_output=True, text=True, cwd=ROOT, timeout=QUICK_HANG, check=False
+    )
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("topic", topics())
+def test_every_benchmark_topic_runs_in_quick_mode(topic: str, tmp_path: Path) -> None:
+    output = tmp_path / "bench-quick.json"
+    done = run_quick(topic, output)
+    assert done.returncode == 0, done.stdout[-3000:] + done.stderr[-3000:]
+    records = json.loads(output.read_text())
+    assert records and all(r["topic"] == topic and r["value"] is not None for r in records)

@@ -325,3 +325,25 @@ def test_a_kernel_left_at_its_process_limit_gets_room_back(writable, tmp_path) -
     assert spawned.startswith("stopped at") and spawned.endswith(" 11\n"), spawned  # EAGAIN
     assert after == "room for a thread\nleft running: 0\n", notebook.cells[1].outputs
     assert kernels.REAPED and kernels.REAPED[0] >= 30, kernels.REAPED
+
+
+def test_a_new_sandbox_never_joins_a_cgroup_left_by_a_grader_of_the_same_pid(writable) -> None:
+    """Pids are reused (32768 of them on a busy machine), and a gone grader's folder whose
+    processes are still dying is not swept: the next name is one nobody holds."""
+    first = cgroups.create("reuse", 1.0, 1 << 30, 64)
+    assert first is not None
+    left = first.directories()
+    taken = int(left[0].name.rsplit("-", 1)[1]) + 1
+    # the folders the next sandbox would get, left behind (as by a killed grader)
+    stale = [folder.with_name(f"{folder.name.rsplit('-', 1)[0]}-{taken}") for folder in left]
+    for folder in stale:
+        folder.mkdir()
+    try:
+        second = cgroups.create("reuse", 1.0, 1 << 30, 64)
+        assert second is not None
+        assert not set(second.directories()) & set(stale), second.directories()
+        second.remove()
+    finally:
+        first.remove()
+        for folder in stale:
+            folder.rmdir()

@@ -34,8 +34,12 @@ class UnixSockets(HasTraits):
 
     @default("connection_file")
     def _connection_file_default(self) -> str:
-        self._private = Path(tempfile.mkdtemp(prefix="rosbook-kernel-"))
+        self._private = Path(tempfile.mkdtemp(prefix="rosbook-kernel-", dir=self.private_parent()))
         return str(self._private / "kernel.json")
+
+    def private_parent(self) -> str | None:
+        """Where the private folder is made (None: the temporary folder)."""
+        return None
 
     @default("ip")
     def _ip_default(self) -> str:
