@@ -162,7 +162,7 @@ class LiveVisualizer(meshcat.Visualizer):
         page = _LIVE_PAGE.format(port=self.port)
         return (
             f'<div style="height: {height}px; width: 100%; overflow: hidden; resize: both">'
-            f'<iframe srcdoc="{html.escape(page, quote=True)}" '
+            f'<iframe title="Live 3D view (MeshCat)" srcdoc="{html.escape(page, quote=True)}" '
             'style="width: 100%; height: 100%; border: none"></iframe></div>'
         )
 
@@ -392,7 +392,8 @@ class Scene:
             f"{self.shared_html()}</body></html>"
         )
         return (
-            f'<iframe srcdoc="{html.escape(page, quote=True)}" '
+            f'<iframe title="{html.escape(self.description, quote=True)}" '
+            f'srcdoc="{html.escape(page, quote=True)}" '
             f'style="width: 100%; height: {self.height + 4}px; border: none"></iframe>'
         )
 
