@@ -89,14 +89,14 @@ def write_notice_page(
 #: What nbgrader's feedback page lacks for readers with a screen reader, a keyboard or
 #: low vision (axe-core's serious rules): links darker than its pale blue and underlined
 #: (they sit in text), the list of checks' links tall enough to hit, code coloured with
-#: contrast enough (Pygments' a11y-light style), the terminal colours of tracebacks
+#: contrast enough (Pygments' xcode style: 4.5:1 and more), the terminal colours of tracebacks
 #: darkened likewise, and every scrolling block of code or output reachable by keyboard.
 ACCESSIBLE_STYLE = (
     "<style>a { color: #1d4f7c; text-decoration: underline; }\n"
     "div.nbgrader_cell .panel-heading a { color: #fff; }\n"
     "#toc li { line-height: 24px; margin: 2px 0; }\n"
     "#toc a { display: inline-block; min-height: 24px; }\n"
-    + HtmlFormatter(style="a11y-light").get_style_defs(".highlight")
+    + HtmlFormatter(style="xcode").get_style_defs(".highlight")
     + "\n.ansi-black-fg { color: #3e424d; } .ansi-red-fg { color: #b22b31; }"
     " .ansi-green-fg { color: #007427; } .ansi-yellow-fg { color: #8a6100; }"
     " .ansi-blue-fg { color: #0065ca; } .ansi-magenta-fg { color: #a03196; }"
