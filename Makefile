@@ -11,7 +11,7 @@ LAB ?= lab01_nodes_topics
 SUBMISSIONS ?= submissions
 OUT ?= grading
 
-.PHONY: book test test-fast stress lab hub check labs grade bench lint clean
+.PHONY: book test test-fast stress lab hub axe check labs grade bench lint clean
 
 $(STAMP): requirements.txt pyproject.toml
 	@$(PYTHON) -c 'import platform, sys; ok = sys.platform == "linux" and platform.machine() == "x86_64" and (3, 10) <= sys.version_info[:2] <= (3, 13); ok or sys.exit("ROS 2 Jazzy wheels exist for Linux x86_64 with Python 3.10-3.13 only; this is %s %s with Python %d.%d (see README: Mac and Windows)" % (sys.platform, platform.machine(), *sys.version_info[:2]))'
@@ -59,6 +59,13 @@ $(CHP):
 	npm install --prefix .hub --no-save --no-package-lock configurable-http-proxy@4.6.3
 hub: $(STAMP) $(CHP)
 	ROSBOOK_HUB_URL=$(HUB_URL) $(BIN)/jupyterhub -f autograder/jupyterhub_config.py
+
+## axe: axe-core, the accessibility rules the browser tests run over every page of the
+## built book; from npm into .axe/ (not global; needs npm), a pinned version
+AXE := .axe/node_modules/axe-core/axe.min.js
+axe: $(AXE)
+$(AXE):
+	npm install --prefix .axe --no-save --no-package-lock axe-core@4.10.3
 
 ## check: a student's self-check of LAB before submitting
 check: $(STAMP)

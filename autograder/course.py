@@ -1,4 +1,5 @@
-"""nbgrader course directories: generating the student version of a lab."""
+"""nbgrader course directories: generating the student version of a lab; a lab answered
+as its solution (what a student who solved it submits)."""
 
 from __future__ import annotations
 
@@ -6,13 +7,14 @@ import functools
 import shutil
 from pathlib import Path
 
+import nbformat
 import nbgrader.api
 from alembic.script import ScriptDirectory
 from nbgrader.apps import NbGraderAPI
 from nbgrader.coursedir import CourseDirectory
 from nbgrader.dbutil import ALEMBIC_DIR
 
-from autograder.config import LABS, nbgrader_config
+from autograder.config import LABS, SOLUTIONS, nbgrader_config
 
 
 @functools.cache
@@ -62,3 +64,45 @@ def release_lab(assignment_id: str, work_dir: Path, labs_dir: Path = LABS) -> Pa
         shutil.rmtree(target)
     shutil.copytree(released, target)
     return target
+
+
+def notebook_path(lab: str, released: bool = True) -> Path:
+    """``lab``'s notebook: as released to students, or the instructor's source."""
+    return (LABS if released else SOLUTIONS) / lab / f"{lab}.ipynb"
+
+
+def grade_id(cell: nbformat.NotebookNode) -> str | None:
+    """The nbgrader name of ``cell``, if it has one."""
+    return cell.get("metadata", {}).get("nbgrader", {}).get("grade_id")
+
+
+def solution_answers(lab: str) -> dict[str, str]:
+    """The instructor's source of every solution cell, by grade_id."""
+    solution = nbformat.read(notebook_path(lab, released=False), as_version=4)
+    return {
+        grade_id(c): c.source
+        for c in solution.cells
+        if c.get("metadata", {}).get("nbgrader", {}).get("solution")
+    }
+
+
+def strip_markers(source: str) -> str:
+    """A solution cell's source without nbgrader's solution markers."""
+    lines = source.splitlines()
+    return "\n".join(
+        ln for ln in lines if ln.strip() not in ("### BEGIN SOLUTION", "### END SOLUTION")
+    )
+
+
+def answered(lab: str, **replacements: str) -> nbformat.NotebookNode:
+    """The released notebook as a student who wrote the solution would submit it.
+
+    ``replacements`` give other answers (cell source) for some grade_ids.
+    """
+    notebook = nbformat.read(notebook_path(lab), as_version=4)
+    answers = {k: strip_markers(v) for k, v in solution_answers(lab).items()}
+    answers.update(replacements)
+    for cell in notebook.cells:
+        if grade_id(cell) in answers and cell.metadata.nbgrader.get("solution"):
+            cell.source = answers[grade_id(cell)]
+    return notebook

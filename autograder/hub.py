@@ -89,8 +89,8 @@ COURSE = str(
 )
 #: nbgrader's instructor tools (JupyterLab plugins), off in students' servers.
 INSTRUCTOR_TOOLS = ("formgrader", "course-list", "create-assignment")
-#: Server extensions off in students' servers (memory: issue 18's 150 MB per idle
-#: student): nbgrader's instructor side; jupyter_lsp (no language server is
+#: Server extensions off in students' servers (memory: an idle student's server
+#: was 150 MB): nbgrader's instructor side; jupyter_lsp (no language server is
 #: installed); jupytext (labs are notebooks: its JupyterLab plugin goes too);
 #: notebook_shim (for classic-notebook extensions: none here). What the labs use stays:
 #: terminals, the proxy for live 3D views, and nbgrader's Assignments tab and validate,

@@ -28,7 +28,7 @@ from sqlalchemy.exc import SAWarning
 
 from autograder import kernels, sandbox
 from autograder.course import api
-from autograder.feedback import GRADER_ERROR, add_notice, cell_name, is_test_cell
+from autograder.feedback import GRADER_ERROR, accessible, add_notice, cell_name, is_test_cell
 from autograder.integrity import grading_code_changes
 from autograder.verdicts import Judged, apply_verdicts, judged_preprocessors, judging
 
@@ -314,7 +314,7 @@ def grade(job: Job) -> Result:
         message = f"{message} {said}".strip()
     destination = Path(job.feedback)
     destination.parent.mkdir(parents=True, exist_ok=True)
-    shutil.copy(page, destination)
+    destination.write_text(accessible(page.read_text(encoding="utf-8")), encoding="utf-8")
     return Result(score, max_score, status, message)
 
 

@@ -9,8 +9,7 @@ action, parameters), in a domain of its own, measured in the same run:
   new node that waits until its discovery has settled;
 - then with the graph daemon running (``ros2 daemon start``; ``rosbook.cli.daemon``),
   each command still a new process, as a user types it:
-- "node list, cold (median)": ``ros2 node list`` until it prints; target 0.7 s on 2 cores
-  (issue 17);
+- "node list, cold (median)": ``ros2 node list`` until it prints; target 0.7 s on 2 cores;
 - "absent topic answer (median)": ``ros2 topic info /absent``, the graph settled (the
   demo nodes up); target 1.5 s;
 - "present topic answer (median)": ``ros2 topic info /parameter_events``.

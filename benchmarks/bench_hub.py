@@ -9,7 +9,7 @@ spends the venv's minute or two and the proxy's ``npm install``):
 - "idle student server, memory": the student's processes (the sandbox, JupyterLab, its
   relay) once JupyterLab has loaded, before any kernel: resident memory summed, and the
   proportional share (PSS: a shared library counted once across the machine); target
-  150 MB (issue 18).
+  150 MB.
 """
 
 from __future__ import annotations

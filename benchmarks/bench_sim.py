@@ -2,15 +2,15 @@
 
 Targets, all measured in one run so that the machine's speed cancels out:
 
-- issue 19: ``simulator ROS-in-the-loop share of the simulation alone``: the real-time
+- ``simulator ROS-in-the-loop share of the simulation alone``: the real-time
   factor with the ROS node and a student-style 50 Hz controller in the loop, over that of
   the same run's simulation without ROS (its wheel commands and lidar sweeps replayed on
   a fresh world, which must end at the same pose), both in CPU seconds of this process;
-  the issue asked for at least 0.5;
-- issue 19: ``lab05 seconds per submission`` at most 10 s where it used to take 27-35 s;
-- issue 6: ``simulator real-time factor`` at least 20x, headless.
+  at least 0.5;
+- ``lab05 seconds per submission`` at most 10 s;
+- ``simulator real-time factor`` at least 20x, headless.
 
-The issue's first reference was a robot driving a circle from the start pose: it soon
+A first reference was a robot driving a circle from the start pose: it soon
 runs into a wall and grinds against it, where a physics step costs three times one in
 open space. The controller here steers clear of walls, so that reference overstated the
 share: 0.44 against it, 0.20 against the replay, on the same machine.

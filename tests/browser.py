@@ -9,13 +9,18 @@ with a loud reason.
 from __future__ import annotations
 
 import os
+import re
+import subprocess
 from collections.abc import Iterator
 from contextlib import ExitStack, contextmanager
+from functools import cache
+from pathlib import Path
 from typing import Any
 
 import pytest
 
 from rosbook.book.chromium import chromium_path, launch
+from rosbook.book.pages import ROOT
 from rosbook.runtime.isolation import RUN_MARKER
 
 
@@ -39,3 +44,47 @@ def chromium() -> Iterator[Any]:
             if marker is not None:
                 os.environ[RUN_MARKER] = marker
         yield browser
+
+
+#: axe-core's rule sets run on every page: WCAG 2.0-2.2 A and AA, best practices, and the
+#: experimental rules (label-content-name-mismatch is one).
+AXE_TAGS = ["wcag2a", "wcag2aa", "wcag21a", "wcag21aa", "wcag22aa", "best-practice", "experimental"]
+#: The impacts a page may not have any violation of.
+AXE_IMPACTS = ("serious", "critical")
+
+
+@cache
+def axe_script() -> str:
+    """axe-core's script, installed by ``make axe`` (from npm into ``.axe/``, at the
+    version the Makefile pins); the calling test fails, saying why, if it cannot be."""
+    found = re.search(r"^AXE := (.+)$", (ROOT / "Makefile").read_text(), re.M)
+    assert found is not None, "the Makefile names axe-core's script (AXE := ...)"
+    made = subprocess.run(
+        ["make", "--no-print-directory", "-C", str(ROOT), "axe"],
+        capture_output=True, text=True, check=False,
+    )  # fmt: skip
+    script = ROOT / found.group(1).strip()
+    if made.returncode != 0 or not script.is_file():
+        pytest.fail(
+            f"make axe could not install axe-core (it needs npm):\n{made.stdout}{made.stderr}"
+        )
+    return Path(script).read_text()
+
+
+def axe_violations(page: Any) -> list[str]:
+    """axe-core's serious and critical violations on an open page, its frames included
+    (an embedded page, such as a feedback page shown in the book): one line per rule,
+    with how many elements break it and the first of them."""
+    for frame in page.frames:
+        frame.add_script_tag(content=axe_script())
+    found = page.evaluate(
+        "tags => axe.run(document, {resultTypes: ['violations'],"
+        " runOnly: {type: 'tag', values: tags}})",
+        AXE_TAGS,
+    )
+    return [
+        f"{rule['id']} ({rule['impact']}, {len(rule['nodes'])} elements, e.g."
+        f" {rule['nodes'][0]['target']}): {rule['help']}"
+        for rule in found["violations"]
+        if rule["impact"] in AXE_IMPACTS
+    ]

@@ -2,7 +2,8 @@
 
 Fixtures are derived from ``labs/`` and ``solutions/`` at test time, so they never go
 stale when a lab changes: "right" is the release with every solution cell answered as
-in the solution, "wrong" replaces some answers, and so on.
+in the solution (``autograder.course.answered``, which the book's grading page uses
+too), "wrong" replaces some answers, and so on.
 """
 
 from __future__ import annotations
@@ -15,48 +16,15 @@ from pathlib import Path
 
 import nbformat
 
-from autograder.config import LABS, SOLUTIONS
+from autograder.course import (  # noqa: F401 (the tests import them from here too)
+    answered,
+    grade_id,
+    notebook_path,
+    solution_answers,
+    strip_markers,
+)
 from autograder.grade import grade_class
 from rosbook.runtime.isolation import RUN_MARKER
-
-
-def notebook_path(lab: str, released: bool = True) -> Path:
-    return (LABS if released else SOLUTIONS) / lab / f"{lab}.ipynb"
-
-
-def grade_id(cell: nbformat.NotebookNode) -> str | None:
-    return cell.get("metadata", {}).get("nbgrader", {}).get("grade_id")
-
-
-def solution_answers(lab: str) -> dict[str, str]:
-    """The instructor's source of every solution cell, by grade_id."""
-    solution = nbformat.read(notebook_path(lab, released=False), as_version=4)
-    return {
-        grade_id(c): c.source
-        for c in solution.cells
-        if c.get("metadata", {}).get("nbgrader", {}).get("solution")
-    }
-
-
-def strip_markers(source: str) -> str:
-    lines = source.splitlines()
-    return "\n".join(
-        ln for ln in lines if ln.strip() not in ("### BEGIN SOLUTION", "### END SOLUTION")
-    )
-
-
-def answered(lab: str, **replacements: str) -> nbformat.NotebookNode:
-    """The released notebook as a student who wrote the solution would submit it.
-
-    ``replacements`` give other answers (cell source) for some grade_ids.
-    """
-    notebook = nbformat.read(notebook_path(lab), as_version=4)
-    answers = {k: strip_markers(v) for k, v in solution_answers(lab).items()}
-    answers.update(replacements)
-    for cell in notebook.cells:
-        if grade_id(cell) in answers and cell.metadata.nbgrader.get("solution"):
-            cell.source = answers[grade_id(cell)]
-    return notebook
 
 
 def replace_in_answer(lab: str, gid: str, old: str, new: str) -> dict[str, str]:

@@ -2,7 +2,8 @@
 
 Every page opened once at a desktop size, and those with maths or tables once at a
 phone's: no console error or warning, no failed request, nothing fetched from another
-host, light enough. The maths rendered from the site's own MathJax and inside its column;
+host, light enough, and no serious or critical violation of axe-core's accessibility
+rules. The maths rendered from the site's own MathJax and inside its column;
 tables scroll on a phone; plots' text readable. The 3D scenes are tested in
 ``test_book_scenes.py``.
 """
@@ -19,6 +20,7 @@ import pytest
 
 from rosbook.book import pages as bookpages
 from rosbook.book.site import DESKTOP, PHONE, visit
+from tests.browser import axe_violations
 
 MB = 1_000_000
 FIRST_PAGE = "book/intro.html"
@@ -94,7 +96,9 @@ def _see(built_book: Path, site: str, browser: object, size: str) -> dict[str, A
     tables): what is wrong with each, by test, and what was measured. The tests below
     read what one visit saw; its bytes are counted as the page loaded, before anything
     else was asked of it."""
-    found: dict[str, Any] = {"loads": [], "bytes": {}, "maths": [], "tables": [], "plots": []}
+    found: dict[str, Any] = {
+        "loads": [], "bytes": {}, "maths": [], "tables": [], "plots": [], "access": [],
+    }  # fmt: skip
     for name in pages(built_book):
         text = (built_book / name).read_text()
         maths, tables = "math notranslate" in text, "<table" in text
@@ -115,6 +119,8 @@ def _see(built_book: Path, site: str, browser: object, size: str) -> dict[str, A
             outside = {"console": seen.console, "failed": seen.failed, "outside": seen.outside}
             for what, items in outside.items():
                 found["loads"] += [f"{name} at {size}: {what}: {item}" for item in items]
+            if size == "desktop":  # last: axe-core's script is not the page's
+                found["access"] += [f"{name}: {said}" for said in axe_violations(seen.page)]
     return found
 
 
@@ -131,6 +137,15 @@ def phone(built_book: Path, site: str, browser: object) -> dict[str, Any]:
 def test_every_page_loads_with_no_console_error_failed_or_outside_request(desktop, phone) -> None:
     problems = desktop["loads"] + phone["loads"]
     assert not problems, "\n".join(problems)
+
+
+def test_every_page_has_no_serious_or_critical_accessibility_violation(
+    built_book: Path, desktop
+) -> None:
+    scenes = scene_pages(built_book)
+    assert scenes, "no page has a 3D scene: its control panel would go unchecked"
+    problems = desktop["access"]
+    assert not problems, "axe-core:\n" + "\n".join(problems)
 
 
 _HREF = re.compile(r'<a\s[^>]*href="([^"]+)"')

@@ -261,7 +261,8 @@ def test_outside_the_book_a_scene_carries_its_own_viewer(
 ) -> None:
     monkeypatch.delenv(viz.VIEWER_MODE_VARIABLE, raising=False)
     page = viz.show(bot)._repr_html_()
-    assert page.startswith("<iframe srcdoc=") and len(page) > VIEWER_SIZE
+    assert page.startswith("<iframe title=") and "srcdoc=" in page and len(page) > VIEWER_SIZE
+    assert 'title="3D view of the robot' in page  # a frame is named by what it shows
     monkeypatch.setenv(viz.VIEWER_MODE_VARIABLE, "shared")
     page = viz.show(bot)._repr_html_()
     assert page.startswith(f'<div class="{viz.SCENE_CLASS}"') and len(page) < 100_000

@@ -54,7 +54,7 @@ def scenes_in(body: str) -> list[SceneMarkup]:
     """The recorded scenes in a page's HTML body, in order."""
     found = []
     for match in _SCENE.finditer(body):
-        label = _LABEL.search(match.group("attrs"))
+        label = _LABEL.search(match.group("pane"))
         description = html.unescape(label.group(1)) if label else "A 3D scene."
         found.append(SceneMarkup(match.group("id"), description, match.group(0)))
     return found

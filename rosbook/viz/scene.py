@@ -162,7 +162,7 @@ class LiveVisualizer(meshcat.Visualizer):
         page = _LIVE_PAGE.format(port=self.port)
         return (
             f'<div style="height: {height}px; width: 100%; overflow: hidden; resize: both">'
-            f'<iframe srcdoc="{html.escape(page, quote=True)}" '
+            f'<iframe title="Live 3D view (MeshCat)" srcdoc="{html.escape(page, quote=True)}" '
             'style="width: 100%; height: 100%; border: none"></iframe></div>'
         )
 
@@ -392,7 +392,8 @@ class Scene:
             f"{self.shared_html()}</body></html>"
         )
         return (
-            f'<iframe srcdoc="{html.escape(page, quote=True)}" '
+            f'<iframe title="{html.escape(self.description, quote=True)}" '
+            f'srcdoc="{html.escape(page, quote=True)}" '
             f'style="width: 100%; height: {self.height + 4}px; border: none"></iframe>'
         )
 
@@ -402,12 +403,15 @@ class Scene:
         frame = html.escape(json.dumps(self.frame), quote=True)
         return (
             # MeshCat puts its control panel in the pane's parent, at its top right:
-            # the outer div is that (positioned) parent.
+            # the outer div is that (positioned) parent. The pane (the picture) is the
+            # image with the scene's description; the panel beside it holds controls,
+            # which an image may not.
             f'<div class="{SCENE_CLASS}" id="{element}" data-frame="{frame}" '
-            f'role="img" aria-label="{html.escape(self.description, quote=True)}" '
             f'style="height: {self.height}px; width: 100%; position: relative; '
             f'overflow: hidden">'
-            f'<div id="{element}-pane" style="width: 100%; height: 100%"></div></div>\n'
+            f'<div id="{element}-pane" role="img" '
+            f'aria-label="{html.escape(self.description, quote=True)}" '
+            f'style="width: 100%; height: 100%"></div></div>\n'
             f'<script type="application/json" id="{element}-commands">'
             f"{self.payload()}</script>\n"
             f"<script>{_PLAYER_JS % {'id': element}}</script>\n"
@@ -443,7 +447,7 @@ _PLAYER_JS = """
     var box = document.getElementById(id);
     var pane = document.getElementById(id + "-pane");
     if (typeof MeshCat === "undefined") {
-      pane.textContent = box.getAttribute("aria-label")
+      pane.textContent = pane.getAttribute("aria-label")
         + " (The 3D view needs the MeshCat viewer script.)";
       return;
     }
@@ -489,6 +493,7 @@ _PLAYER_JS = """
       viewer.set_dirty();
     };
     viewer.gui.close();
+    label(viewer.gui.domElement);
     viewer.set_3d_pane_size();
     if (typeof ResizeObserver !== "undefined") {
       new ResizeObserver(function () { viewer.set_3d_pane_size(); }).observe(pane);
@@ -507,6 +512,48 @@ _PLAYER_JS = """
     }
     pane.meshcatViewer = viewer;
     box.classList.add("rosbook-scene-live");
+  }
+  /* The control panel, for a keyboard and a screen reader: each control named by its
+     folders and property ("Scene / Lights: castShadow"; a folder's visibility box
+     "show Scene / Lights"), the open/close bar a button, a closed panel's controls out
+     of the tab order. Again whenever the panel changes (MeshCat adds folders). */
+  function label(panel) {
+    function folders(control) {
+      var names = [];
+      for (var f = control.closest("li.folder"); f; f = f.parentElement.closest("li.folder")) {
+        var title = f.querySelector(":scope > .dg > ul > li.title");
+        if (title) { names.unshift(title.textContent); }
+      }
+      return names.join(" / ");
+    }
+    function name() {
+      panel.querySelectorAll("input, select").forEach(function (control) {
+        var row = control.closest("li.cr");
+        var property = row && row.querySelector(".property-name");
+        var where = folders(control);
+        control.setAttribute("aria-label", property
+          ? (where ? where + ": " : "") + property.textContent : "show " + where);
+      });
+      var bar = panel.querySelector(":scope > .close-button");
+      var list = panel.querySelector(":scope > ul");
+      if (bar && list) {
+        var open = !list.classList.contains("closed");
+        bar.setAttribute("role", "button");
+        bar.setAttribute("tabindex", "0");
+        bar.setAttribute("aria-expanded", open ? "true" : "false");
+        list.inert = !open;
+      }
+    }
+    var bar = panel.querySelector(":scope > .close-button");
+    if (bar) {
+      bar.addEventListener("keydown", function (event) {
+        if (event.key === "Enter" || event.key === " ") { event.preventDefault(); bar.click(); }
+      });
+    }
+    name();
+    new MutationObserver(name).observe(panel, {
+      childList: true, subtree: true, attributes: true, attributeFilter: ["class"]
+    });
   }
   if (document.readyState === "complete") { play(); }
   else { window.addEventListener("load", play); }
