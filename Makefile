@@ -50,14 +50,14 @@ lab: $(STAMP)
 	$(ISOLATED) $(BIN)/jupyter lab --config=rosbook/jupyterlab_config.py $(LAB_ARGS) $(LAB_DIR)
 
 ## hub: the course server: JupyterHub at HUB_URL, each student's JupyterLab sandboxed on a
-## network of its own (autograder/hub.py); its proxy comes from npm into .hub/ (not global).
-## People: `.venv/bin/python -m autograder.hub add NAME [--instructor]` prints a password
+## network of its own (coursehub/hub.py); its proxy comes from npm into .hub/ (not global).
+## People: `.venv/bin/python -m coursehub.hub add NAME [--instructor]` prints a password
 HUB_URL ?= http://127.0.0.1:8000
 CHP := .hub/node_modules/.bin/configurable-http-proxy
 $(CHP):
 	npm install --prefix .hub --no-save --no-package-lock configurable-http-proxy@4.6.3
 hub: $(STAMP) $(CHP)
-	ROSBOOK_HUB_URL=$(HUB_URL) $(BIN)/jupyterhub -f autograder/jupyterhub_config.py
+	ROSBOOK_HUB_URL=$(HUB_URL) $(BIN)/jupyterhub -f coursehub/jupyterhub_config.py
 
 ## check: a student's self-check of LAB before submitting
 check: $(STAMP)
@@ -76,8 +76,8 @@ bench: $(STAMP)
 	$(BIN)/python -m benchmarks
 
 lint: $(STAMP)
-	$(BIN)/ruff check rosbook autograder tests benchmarks solutions
-	$(BIN)/ruff format --check rosbook autograder tests benchmarks
+	$(BIN)/ruff check rosbook autograder coursehub tests benchmarks solutions
+	$(BIN)/ruff format --check rosbook autograder coursehub tests benchmarks
 
 clean:
 	rm -rf _build grading

@@ -1,12 +1,12 @@
 """A byte relay between two endpoints: how the course hub crosses a sandbox's network.
 
-A student's server (``autograder.hub``) runs in a network namespace with only a
+A student's server (``coursehub.hub``) runs in a network namespace with only a
 loopback of its own, so neither side can reach the other by TCP. Unix sockets are
 files, not network objects: a socket in a folder both sides see connects them. An
 endpoint is ``tcp:HOST:PORT`` or ``unix:PATH``; each connection accepted on the
 listening endpoint is piped, both ways, to a new connection to the other one.
 
-``python -m autograder.relay LISTEN CONNECT`` (started in a sandbox's network with
+``python -m coursehub.relay LISTEN CONNECT`` (started in a sandbox's network with
 ``Network.join_argv``) prints ``ready PORT`` once it listens, and ends when its
 standard input closes: when the hub that started it stops or dies.
 """

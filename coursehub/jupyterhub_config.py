@@ -1,8 +1,8 @@
-"""``make hub``'s JupyterHub settings (``jupyterhub -f autograder/jupyterhub_config.py``).
+"""``make hub``'s JupyterHub settings (``jupyterhub -f coursehub/jupyterhub_config.py``).
 
 Every student's JupyterLab runs sandboxed on a network of its own
-(``autograder.hub.SandboxSpawner``); people log in with their own password from the
-roster (``autograder.hub.RosterAuthenticator``; instructors are admins). Settings from
+(``coursehub.hub.SandboxSpawner``); people log in with their own password from the
+roster (``coursehub.hub.RosterAuthenticator``; instructors are admins). Settings from
 the environment:
 
 - ``ROSBOOK_HUB_URL``: where students connect (default ``http://127.0.0.1:8000``;
@@ -26,7 +26,7 @@ import json
 import os
 import shlex
 
-from autograder.hub import (
+from coursehub.hub import (
     ROOT,
     ListeningProxy,
     RosterAuthenticator,

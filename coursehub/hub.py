@@ -1,6 +1,6 @@
 """The course server's pieces: each student's JupyterLab in a sandbox, and the roster.
 
-``make hub`` runs JupyterHub with ``autograder/jupyterhub_config.py``, which uses:
+``make hub`` runs JupyterHub with ``coursehub/jupyterhub_config.py``, which uses:
 
 - ``SandboxSpawner``: a student's single-user server runs in the grader's sandbox
   (``autograder.sandbox``: its own user, PID, IPC and mount namespaces, the system and
@@ -13,7 +13,7 @@
   in the sandbox.
 - **Crossing the network namespace.** Nothing outside reaches the sandbox's loopback
   and the server reaches nothing outside, so both ways go through unix sockets, which
-  are files (``autograder.relay``): the server listens on ``/run/hub/jupyter.sock``
+  are files (``coursehub.relay``): the server listens on ``/run/hub/jupyter.sock``
   (a per-student host folder bound there) and a relay in the hub process gives the
   proxy and the hub a TCP port on the host's loopback for it; the server calls the hub's
   API at its usual address, where a relay joined to the sandbox's network
@@ -34,10 +34,10 @@
   student's ``feedback`` only, named as nbgrader's ``fetch_feedback`` looks for it
   (the hash of their submission's secret and the notebook). Students use the
   Assignments tab (or ``nbgrader fetch_assignment/validate/submit/fetch_feedback``) as
-  on any nbgrader course; the instructor runs ``python -m autograder.hub release|collect|
+  on any nbgrader course; the instructor runs ``python -m coursehub.hub release|collect|
   feedback`` and ``python -m autograder grade``.
 - ``RosterAuthenticator``: each student and instructor has a password of their own
-  (``python -m autograder.hub add NAME [--instructor]`` prints it; only its scrypt hash
+  (``python -m coursehub.hub add NAME [--instructor]`` prints it; only its scrypt hash
   is kept); instructors are the hub's admins.
 """
 
@@ -70,9 +70,9 @@ from nbgrader.utils import notebook_hash
 from traitlets import Float, Integer, Unicode
 from traitlets.config.loader import PyFileConfigLoader
 
-from autograder import relay
 from autograder.cgroups import Cgroup
 from autograder.sandbox import HOME, Limits, Network, prepare, start
+from coursehub import relay
 from rosbook import jupyter_assignments
 from rosbook.runtime.isolation import BASE_ENV
 
@@ -525,7 +525,7 @@ def add(roster: Path, name: str, instructor: bool = False) -> str:
 if __name__ == "__main__":
     import argparse
 
-    parser = argparse.ArgumentParser(prog="python -m autograder.hub")
+    parser = argparse.ArgumentParser(prog="python -m coursehub.hub")
     sub = parser.add_subparsers(dest="command", required=True)
     adding = sub.add_parser("add", help="add a student (or --instructor); prints the password")
     adding.add_argument("names", nargs="+")
