@@ -51,13 +51,15 @@ lab: $(STAMP)
 
 ## hub: the course server: JupyterHub at HUB_URL, each student's JupyterLab sandboxed on a
 ## network of its own (coursehub/hub.py); its proxy comes from npm into .hub/ (not global).
-## People: `.venv/bin/python -m coursehub.hub add NAME [--instructor]` prints a password
+## People: `.venv/bin/python -m coursehub.hub add NAME [--instructor]` prints a password.
+## Ctrl-C, or SIGTERM to make or to the hub, stops the proxy and every student's sandbox
+## (exec: the hub is make's child itself, and stops when make ends).
 HUB_URL ?= http://127.0.0.1:8000
 CHP := .hub/node_modules/.bin/configurable-http-proxy
 $(CHP):
 	npm install --prefix .hub --no-save --no-package-lock configurable-http-proxy@4.6.3
 hub: $(STAMP) $(CHP)
-	ROSBOOK_HUB_URL=$(HUB_URL) $(BIN)/jupyterhub -f coursehub/jupyterhub_config.py
+	ROSBOOK_HUB_URL=$(HUB_URL) ROSBOOK_HUB_PARENT=$$PPID exec $(BIN)/jupyterhub -f coursehub/jupyterhub_config.py
 
 ## check: a student's self-check of LAB before submitting
 check: $(STAMP)

@@ -33,9 +33,13 @@ from coursehub.hub import (
     SandboxSpawner,
     free_port,
     state_dir,
+    stop_with_parent,
 )
 
 c = get_config()  # type: ignore[name-defined]  # noqa: F821  (traitlets config file)
+
+if os.environ.get("ROSBOOK_HUB_PARENT"):  # make hub's: the hub stops when make does
+    stop_with_parent(int(os.environ["ROSBOOK_HUB_PARENT"]))
 
 state = state_dir()
 state.mkdir(parents=True, exist_ok=True)
