@@ -190,15 +190,17 @@ class SandboxSpawner(SimpleLocalProcessSpawner):  # type: ignore[misc]
             raise RuntimeError(f"relay in the sandbox's network failed (exit {proc.poll()})")
         return proc
 
-    def _configure(self, home: Path) -> None:
-        """The student's nbgrader settings (made once: theirs to change) and, for a
-        student, JupyterLab's page settings without the instructor's tools; never
-        through a link (``safefs.Refused``)."""
-        with safefs.folder(home, ".jupyter", create=True, owner=OUTSIDE) as jupyter:
-            nbgrader = f"c.CourseDirectory.course_id = {COURSE!r}\nc.Exchange.root = {EXCHANGE!r}\n"
-            safefs.create(
-                jupyter, "nbgrader_config.py", nbgrader.encode(), home / ".jupyter", OUTSIDE
-            )
+    def _nbgrader_settings(self, home: Path) -> None:
+        """The student's nbgrader settings: made once (theirs to change), never through
+        a link, even a dangling one (``safefs.Refused``)."""
+        nbgrader = f"c.CourseDirectory.course_id = {COURSE!r}\nc.Exchange.root = {EXCHANGE!r}\n"
+        with safefs.folder(home, ".jupyter", create=True, owner=OUTSIDE) as fd:
+            there = home / ".jupyter" / "nbgrader_config.py"
+            safefs.create(fd, there.name, nbgrader.encode(), there, OUTSIDE)
+
+    def _page_settings(self, home: Path) -> None:
+        """A student's JupyterLab page settings, without the instructor's tools: written
+        at each start, replacing what is there, never through a link."""
         if self.user.admin:  # the instructor's tools are the instructor's
             return
         disabled = {f"@jupyter/nbgrader:{name}": True for name in INSTRUCTOR_TOOLS}
@@ -206,12 +208,9 @@ class SandboxSpawner(SimpleLocalProcessSpawner):  # type: ignore[misc]
         # No build check: JupyterLab would start node (``yarn config``, ~50 MB) at each
         # login to offer a build nobody can run (the venv is read-only here).
         page = {"disabledExtensions": disabled, "buildCheck": False, "buildAvailable": False}
-        labconfig = home / ".jupyter" / "labconfig"
+        there = home / ".jupyter" / "labconfig" / "page_config.json"
         with safefs.folder(home, ".jupyter", "labconfig", create=True, owner=OUTSIDE) as fd:
-            safefs.write(
-                fd, "page_config.json", json.dumps(page).encode(), labconfig / "page_config.json",
-                OUTSIDE,
-            )  # fmt: skip
+            safefs.write(fd, there.name, json.dumps(page).encode(), there, OUTSIDE)
 
     async def start(self) -> tuple[str, int]:  # type: ignore[override]
         try:
@@ -237,7 +236,11 @@ class SandboxSpawner(SimpleLocalProcessSpawner):  # type: ignore[misc]
             with contextlib.suppress(FileNotFoundError):
                 os.unlink(SOCKET, dir_fd=fd)  # unlink removes a link, never its target
         exchange = state_dir() / "exchange" / self.user.name
-        for making in (lambda: _exchange(self.user.name), lambda: self._configure(home)):
+        for making in (
+            lambda: _exchange(self.user.name),
+            lambda: self._nbgrader_settings(home),
+            lambda: self._page_settings(home),
+        ):
             try:  # a student's own link breaks only their own settings: named, not followed
                 making()
             except safefs.Refused as exc:

@@ -26,6 +26,8 @@ from pathlib import Path
 FOLDER = os.O_RDONLY | os.O_DIRECTORY | os.O_NOFOLLOW | os.O_CLOEXEC
 #: How a file is read: a link is refused, a FIFO does not block (then fstat refuses it).
 READ = os.O_RDONLY | os.O_NOFOLLOW | os.O_NONBLOCK | os.O_CLOEXEC
+#: How a new file is made: never over anything, never through a link.
+NEW = os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_NOFOLLOW | os.O_CLOEXEC
 CHUNK = 1 << 16
 
 
@@ -123,7 +125,7 @@ def write(
     """``data`` as the file ``name`` in ``dir_fd``: written under a fresh name, then
     renamed over ``name`` (a link there is replaced, never written through)."""
     fresh = f".{name}.{secrets.token_hex(8)}"
-    fd = os.open(fresh, os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_NOFOLLOW, 0o644, dir_fd=dir_fd)
+    fd = os.open(fresh, NEW, 0o644, dir_fd=dir_fd)
     try:
         with os.fdopen(fd, "wb", closefd=False) as out:
             out.write(data)
@@ -147,9 +149,7 @@ def create(
     """Create the file ``name`` in ``dir_fd`` with ``data`` unless something is there
     (False); a link there, even a dangling one, is ``Refused``, never created through."""
     try:
-        fd = os.open(
-            name, os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_NOFOLLOW, 0o644, dir_fd=dir_fd
-        )
+        fd = os.open(name, NEW, 0o644, dir_fd=dir_fd)
     except FileExistsError:
         if stat.S_ISLNK(os.stat(name, dir_fd=dir_fd, follow_symlinks=False).st_mode):
             raise Refused(path, _found(dir_fd, name)) from None
@@ -262,3 +262,34 @@ def copy_out(dir_fd: int, path: Path, target: Path, limit: int) -> int:
         else:
             raise Refused(path / name, _found(dir_fd, name))
     return used
+
+
+def clone(source: int, into: int, path: Path, owner: tuple[int, int] | None) -> None:
+    """Copy a student's folder (``source``, named ``path``) into the hub's ``into``:
+    folders, regular files, and links as links (never followed), all given to
+    ``owner``; FIFOs, sockets and devices are left out."""
+    with os.scandir(source) as entries:
+        names = sorted(entry.name for entry in entries)
+    for name in names:
+        mode = os.stat(name, dir_fd=source, follow_symlinks=False).st_mode
+        if stat.S_ISDIR(mode):
+            os.mkdir(name, 0o755, dir_fd=into)
+            inner, outer = open_folder(source, name, path / name), open_folder(into, name, name)
+            try:
+                give(outer, owner)
+                clone(inner, outer, path / name, owner)
+            finally:
+                os.close(inner)
+                os.close(outer)
+        elif stat.S_ISLNK(mode):
+            os.symlink(os.readlink(name, dir_fd=source), name, dir_fd=into)
+            if owner is not None:
+                os.chown(name, *owner, dir_fd=into, follow_symlinks=False)
+        elif stat.S_ISREG(mode):
+            fd = os.open(name, NEW, 0o644, dir_fd=into)
+            try:
+                for chunk in _chunks(source, name, path / name, limit=1 << 62):
+                    os.write(fd, chunk)  # short writes: none on a local disk's file
+                give(fd, owner)
+            finally:
+                os.close(fd)

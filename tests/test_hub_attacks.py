@@ -11,21 +11,33 @@ outside the student's own folders, naming each link it refused.
 from __future__ import annotations
 
 import asyncio
+import glob
+import json
 import os
+import re
+import signal
+import socket
+import stat
 import subprocess
 import sys
 import tempfile
-from collections.abc import Iterator
+import time
+import urllib.error
+import urllib.parse
+import urllib.request
+from collections.abc import Callable, Iterator
 from pathlib import Path
+from typing import Any
 
 import nbformat
 import pytest
 
 from autograder.config import ROOT
-from autograder.sandbox import NOBODY, Network, prepare, start
+from autograder.sandbox import HOME, NOBODY, Network, prepare, process_tree, start
 from autograder.worker import MAX_NOTEBOOK_BYTES
 from coursehub import hub, relay, safefs
 from rosbook.runtime.isolation import child_env
+from tests.test_hub import _alive
 
 LAB = "lab01_nodes_topics"
 STUDENTS = ("ada", "ben")
@@ -287,3 +299,176 @@ def test_safe_copy_counts_bytes_while_copying(tmp_path) -> None:
             safefs.copy_out(fd, source, tmp_path / "out", MAX_NOTEBOOK_BYTES)
     finally:
         os.close(fd)
+
+
+# --- against a running hub (make hub): a student's server starting, and logins --------
+
+#: A hang guard for a server to start on a loaded machine, and for the hub's stop.
+START_S = 600
+
+
+def _log_in(url: str, name: str, password: str) -> tuple[int, urllib.request.OpenerDirector]:
+    """The hub's login form, posted as a browser posts it: the answer's status, and the
+    session (its cookies) to go on with."""
+    session = urllib.request.build_opener(urllib.request.HTTPCookieProcessor())
+    form = session.open(f"{url}/hub/login", timeout=START_S).read().decode()
+    xsrf = re.search(r'name="_xsrf" value="([^"]+)"', form)
+    assert xsrf, form
+    data = urllib.parse.urlencode({"_xsrf": xsrf[1], "username": name, "password": password})
+    try:
+        with session.open(f"{url}/hub/login", data=data.encode(), timeout=START_S) as answer:
+            return answer.status, session
+    except urllib.error.HTTPError as error:
+        return error.code, session
+
+
+def _server_answers(url: str, name: str, session: urllib.request.OpenerDirector) -> bool:
+    try:
+        with session.open(f"{url}/user/{name}/api/status", timeout=START_S) as answer:
+            return answer.status == 200 and "started" in json.loads(answer.read())
+    except (urllib.error.HTTPError, ValueError):
+        return False
+
+
+def _wait_for(done: Callable[[], bool], what: str) -> None:
+    deadline = time.monotonic() + START_S
+    while not done():
+        assert time.monotonic() < deadline, f"timeout: {what}"
+        time.sleep(0.5)  # polling for the event, not waiting for time
+
+
+@pytest.fixture(scope="module")
+def attacked(tmp_path_factory: pytest.TempPathFactory) -> Iterator[dict[str, Any]]:
+    """``make hub`` whose student ada filled her home, socket folder and exchange with
+    links (as her own server would) before her server starts: root-only files, a
+    dangling link where the hub writes her nbgrader settings, her JupyterLab settings
+    folder a link to a root folder."""
+    state = tmp_path_factory.mktemp("hub")
+    host = tmp_path_factory.mktemp("host")  # what the links aim at: root's
+    passwords = {name: hub.add(state / "roster.json", name) for name in STUDENTS}
+    run = state / "run" / "ada" / "server"
+    home = state / "home" / "ada"
+    for folder in (home, run):
+        folder.mkdir(parents=True)
+        os.chown(folder, NOBODY, NOBODY)
+    os.environ["ROSBOOK_HUB_DIR"] = str(state)
+    try:
+        hub._exchange("ada")
+    finally:
+        del os.environ["ROSBOOK_HUB_DIR"]
+    targets = {where: root_file(host / where) for where in ("jupyter", "run", "exchange")}
+    labconfig = host / "labconfig"
+    root_file(labconfig / "page_config.json", "root's page\n")
+    made = host / "made-by-root.py"
+    script = (
+        f"mkdir -p ~/.jupyter && ln -s {targets['jupyter']} ~/.jupyter/x\n"
+        f"ln -s {made} ~/.jupyter/nbgrader_config.py\n"
+        f"ln -s {labconfig} ~/.jupyter/labconfig\n"
+        f"ln -s {targets['run']} /run/hub/x\n"
+        f"ln -s {targets['exchange']} {hub.EXCHANGE}/{hub.COURSE}/inbound/x\n"
+    )
+    as_student(
+        tmp_path_factory.mktemp("attack"),
+        {HOME: home, hub.RUN: run, hub.EXCHANGE: state / "exchange" / "ada"},
+        script,
+    )
+    env = child_env()
+    env["ROSBOOK_HUB_DIR"] = str(state)
+    log = (state / "hub.log").open("w")
+    try:
+        server, url = hub.serve(env, log)
+    except (RuntimeError, TimeoutError) as exc:
+        log.close()
+        pytest.fail(f"{exc}:\n" + Path(log.name).read_text())
+    try:
+        yield {
+            "url": url, "state": state, "server": server, "passwords": passwords,
+            "targets": targets, "labconfig": labconfig, "made": made, "log": Path(log.name),
+        }  # fmt: skip
+    finally:
+        hub.stop(server, START_S)
+        log.close()
+
+
+@needs_root
+@pytest.mark.slow
+def test_a_servers_start_follows_no_link_in_the_students_folders(attacked) -> None:
+    """ada's server starts: the root files her links aim at keep their owner, the
+    dangling link makes no file, the linked settings folder keeps root's page, and the
+    hub's log names each link; her server runs all the same."""
+    url = attacked["url"]
+    status, session = _log_in(url, "ada", attacked["passwords"]["ada"])
+    assert status == 200, status
+    _wait_for(lambda: _server_answers(url, "ada", session), "ada's server never answered")
+    for where, target in attacked["targets"].items():
+        assert target.stat().st_uid == 0 and stat.S_IMODE(target.stat().st_mode) == 0o600, where
+    assert not os.path.lexists(attacked["made"])
+    assert (attacked["labconfig"] / "page_config.json").read_text() == "root's page\n"
+    assert attacked["labconfig"].stat().st_uid == 0
+    said = attacked["log"].read_text()
+    assert f"nbgrader_config.py: a symbolic link to {attacked['made']}" in said, said
+    assert f"labconfig: a symbolic link to {attacked['labconfig']}" in said, said
+
+
+@needs_root
+@pytest.mark.slow
+def test_the_hub_never_connects_to_a_socket_the_student_links(attacked, tmp_path) -> None:
+    """ada replaces her server's socket with a link to a root service's socket: her
+    requests reach nothing (the relay refuses the link and the log names it), and the
+    service never hears from the hub."""
+    url, state = attacked["url"], attacked["state"]
+    status, session = _log_in(url, "ada", attacked["passwords"]["ada"])
+    assert status == 200, status
+    _wait_for(lambda: _server_answers(url, "ada", session), "ada's server never answered")
+    heard: list[bytes] = []
+    service = socket.socket(socket.AF_UNIX)
+    service.bind(str(tmp_path / "root.sock"))
+    service.listen()
+    service.settimeout(0)
+    run = state / "run" / "ada" / "server"
+    as_student(tmp_path, {hub.RUN: run}, f"ln -sf {tmp_path / 'root.sock'} /run/hub/{hub.SOCKET}")
+    assert not _server_answers(url, "ada", session)
+    try:
+        heard.append(service.accept()[0].recv(100))
+    except BlockingIOError:
+        pass  # nobody connected: the relay refused
+    service.close()
+    assert heard == []
+    said = attacked["log"].read_text()
+    assert f"{run / hub.SOCKET}: a link; refused, never connected to" in said, said
+
+
+@needs_root
+@pytest.mark.slow
+def test_wrong_passwords_lock_the_name_and_the_address(attacked) -> None:
+    """After the throttle's free wrong passwords for ada, her right password is refused;
+    so is ben's, from the same address, who never typed a wrong one."""
+    url, passwords = attacked["url"], attacked["passwords"]
+    for _ in range(hub.LOGIN_THROTTLE.free):
+        assert _log_in(url, "ada", "not-her-password")[0] == 403
+    assert _log_in(url, "ada", passwords["ada"])[0] == 403
+    assert _log_in(url, "ben", passwords["ben"])[0] == 403
+    said = attacked["log"].read_text()
+    assert "login refused: username 'ada' throttled for" in said, said
+    assert "login refused: address 127.0.0.1 throttled for" in said, said
+
+
+@needs_root
+@pytest.mark.slow
+def test_sigterm_to_make_hub_stops_every_process_and_leaves_no_folder(attacked) -> None:
+    """SIGTERM to ``make hub`` alone (not its group): the hub, its proxy, ada's server
+    and sandbox all end, and no temporary folder of hers is left."""
+    server = attacked["server"]
+    processes = process_tree(server.pid)
+    assert any("jupyterhub-singleuser" in _cmdline(pid) for pid in processes), processes
+    os.kill(server.pid, signal.SIGTERM)
+    server.wait(timeout=START_S)
+    _wait_for(lambda: not _alive(processes), "processes of the hub outlived it")
+    assert glob.glob(os.path.join(tempfile.gettempdir(), "rosbook-hub-ada-*")) == []
+
+
+def _cmdline(pid: int) -> str:
+    try:
+        return Path(f"/proc/{pid}/cmdline").read_bytes().replace(b"\0", b" ").decode()
+    except OSError:
+        return ""
