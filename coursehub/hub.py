@@ -10,7 +10,15 @@
   own: a loopback only, so ROS traffic never crosses students, whatever their
   ``ROS_DOMAIN_ID``. The student's home is their own folder on the host
   (``home_dir_template``) bound at ``/home/student``; no other student's folder exists
-  in the sandbox.
+  in the sandbox. When the hub is root, that folder is a disk of its own while the
+  server runs (``coursehub.homes``: ``HOME_QUOTA`` bytes, ``SandboxSpawner.quota``).
+- **Root never follows a student's link.** Everything below the hub's own folders (a
+  home, an exchange, a socket folder) is the student's, who can put a symbolic link
+  anywhere in it at any moment. The hub's file work there goes through
+  ``coursehub.safefs`` (descriptors, ``O_NOFOLLOW``, ``fchown``, rename into place):
+  a link where a file or folder is expected is refused, named in the log (the hub's,
+  or the instructor's command's standard error), never followed; the relay connects
+  only to a socket of the server's user, never through a link.
 - **Crossing the network namespace.** Nothing outside reaches the sandbox's loopback
   and the server reaches nothing outside, so both ways go through unix sockets, which
   are files (``coursehub.relay``): the server listens on ``/run/hub/jupyter.sock``
@@ -22,15 +30,19 @@
 - Stopping a server kills its sandbox (its PID namespace ends with its first process)
   and its network; bwrap and the network holder die with the hub too
   (``--die-with-parent``), and the joined relay ends when its standard input closes.
+  SIGTERM or SIGINT to the hub stops every server, then the proxy; ``make hub`` execs
+  the hub, which also stops when make ends (``stop_with_parent``), and the hub's exit
+  releases whatever a stop cut short left (``/tmp/rosbook-hub-NAME-*``, mounts).
 - **The nbgrader exchange.** nbgrader's shared exchange folder relies on Unix users and
   file modes to keep students apart; here every student is the same uid, so one shared
   folder would let any student read (or overwrite) another's submission. Instead each
   student has an exchange of their own (``exchange/NAME``, bound at nbgrader's default
   ``/srv/nbgrader/exchange``), and only the hub's side, which sees them all, crosses
   between them: ``release`` copies a lab into every student's ``outbound``,
-  ``collect`` copies each student's latest submission from their ``inbound`` into the
-  grader's ``SUBMISSIONS/NAME/LAB/`` under their roster name (inside, everyone is
-  "student"), and ``feedback`` puts the grader's feedback for each student into that
+  ``collect`` copies each student's latest submission (by the time in its name) from
+  their ``inbound`` into the grader's ``SUBMISSIONS/NAME/LAB/`` under their roster
+  name (inside, everyone is "student"): folders and regular files only, at most the
+  grader's ``MAX_NOTEBOOK_BYTES`` in all, and ``feedback`` puts the grader's feedback for each student into that
   student's ``feedback`` only, named as nbgrader's ``fetch_feedback`` looks for it
   (the hash of their submission's secret and the notebook). Students use the
   Assignments tab (or ``nbgrader fetch_assignment/validate/submit/fetch_feedback``) as
@@ -38,7 +50,8 @@
   feedback`` and ``python -m autograder grade``.
 - ``RosterAuthenticator``: each student and instructor has a password of their own
   (``python -m coursehub.hub add NAME [--instructor]`` prints it; only its scrypt hash
-  is kept); instructors are the hub's admins.
+  is kept); instructors are the hub's admins. Wrong passwords are throttled per
+  username and per address (``LOGIN_THROTTLE``).
 """
 
 from __future__ import annotations
@@ -78,7 +91,7 @@ from traitlets.config.loader import PyFileConfigLoader
 from autograder.cgroups import Cgroup
 from autograder.sandbox import HOME, NOBODY, Limits, Network, prepare, start
 from autograder.worker import MAX_NOTEBOOK_BYTES
-from coursehub import relay, safefs
+from coursehub import homes, relay, safefs
 from rosbook import jupyter_assignments
 from rosbook.runtime.isolation import BASE_ENV
 
@@ -117,6 +130,10 @@ SECRET = "submission_secret.txt"
 #: Who a sandbox is outside, given what the hub makes in a student's folders: nobody
 #: when the hub is root; None (the hub's own user, who makes them) otherwise.
 OUTSIDE = (NOBODY, NOBODY) if os.geteuid() == 0 else None
+#: Each student's home is a disk of its own of this size (``coursehub.homes``: at the
+#: limit, JupyterLab's save says "No space left on device"); the hub's config sets
+#: another (``SandboxSpawner.quota``, ``ROSBOOK_HUB_QUOTA_MB``), 0 for no limit.
+HOME_QUOTA = 1 << 30
 #: prctl's option: the signal a process gets when its parent ends.
 PR_SET_PDEATHSIG = 1
 #: A hang guard for a relay or a server to come up (a loaded machine is slow).
@@ -142,6 +159,9 @@ class SandboxSpawner(SimpleLocalProcessSpawner):  # type: ignore[misc]
     cpus = Float(1.0, config=True, help="CPUs of a student's sandbox (its cgroup's quota).")
     ram = Integer(1 << 30, config=True, help="Memory of a student's sandbox (bytes).")
     disk = Integer(Limits.disk, config=True, help="Size of the sandbox's /tmp (bytes).")
+    quota = Integer(
+        HOME_QUOTA, config=True, help="Size of each student's home (bytes; 0: no limit)."
+    )
     run_dir = Unicode(
         str(ROOT / ".hub" / "run"), config=True, help="Host folder of per-student sockets."
     )
@@ -158,6 +178,7 @@ class SandboxSpawner(SimpleLocalProcessSpawner):  # type: ignore[misc]
     _relays: list[asyncio.AbstractServer]
     _private = ""  # the sandbox's generated files (autograder.sandbox.prepare)
     _server_pid = 0  # the sandbox's first process, seen from the hub
+    _mounted = ""  # the home, while its disk (coursehub.homes) is mounted
     _running: set[SandboxSpawner] = set()  # every server not yet released
 
     def _limits(self) -> Limits:
@@ -227,6 +248,13 @@ class SandboxSpawner(SimpleLocalProcessSpawner):  # type: ignore[misc]
         home.mkdir(parents=True, exist_ok=True)
         with safefs.folder(home) as fd:
             safefs.give(fd, OUTSIDE)
+        if self.quota:
+            if why := homes.available():
+                self.log.warning("%s: a home without a size limit: %s", self.user.name, why)
+            else:
+                image = state_dir() / "quota" / f"{self.user.name}.ext4"
+                await asyncio.to_thread(homes.mount, home, image, self.quota, (NOBODY, NOBODY))
+                self._mounted = str(home)
         run = Path(self.run_dir) / self.user.name
         server_dir = run / "server"
         server_dir.mkdir(parents=True, exist_ok=True)
@@ -243,7 +271,7 @@ class SandboxSpawner(SimpleLocalProcessSpawner):  # type: ignore[misc]
         ):
             try:  # a student's own link breaks only their own settings: named, not followed
                 making()
-            except safefs.Refused as exc:
+            except (safefs.Refused, OSError) as exc:  # or a full home: said, not fatal
                 self.log.warning("%s: %s", self.user.name, exc)
         env = self.get_env()
         env.update(BASE_ENV)  # the course's ROS settings (log lines on stdout, as graded)
@@ -354,6 +382,9 @@ class SandboxSpawner(SimpleLocalProcessSpawner):  # type: ignore[misc]
         if self._private:
             shutil.rmtree(self._private, ignore_errors=True)
             self._private = ""
+        if self._mounted:
+            homes.unmount(Path(self._mounted))
+            self._mounted = ""
         SandboxSpawner._running.discard(self)
 
     def get_state(self) -> dict[str, Any]:

@@ -33,7 +33,7 @@ import nbformat
 import pytest
 
 from autograder.config import ROOT
-from autograder.sandbox import HOME, NOBODY, Network, prepare, process_tree, start
+from autograder.sandbox import HOME, NOBODY, Network, enter_argv, prepare, process_tree, start
 from autograder.worker import MAX_NOTEBOOK_BYTES
 from coursehub import hub, relay, safefs
 from rosbook.runtime.isolation import child_env
@@ -305,6 +305,8 @@ def test_safe_copy_counts_bytes_while_copying(tmp_path) -> None:
 
 #: A hang guard for a server to start on a loaded machine, and for the hub's stop.
 START_S = 600
+#: The students' home quota in these tests.
+QUOTA_MB = 64
 
 
 def _log_in(url: str, name: str, password: str) -> tuple[int, urllib.request.OpenerDirector]:
@@ -323,10 +325,12 @@ def _log_in(url: str, name: str, password: str) -> tuple[int, urllib.request.Ope
 
 
 def _server_answers(url: str, name: str, session: urllib.request.OpenerDirector) -> bool:
+    """Whether ``name``'s server serves JupyterLab to the session (logging it in to the
+    server on the way, as a browser is)."""
     try:
-        with session.open(f"{url}/user/{name}/api/status", timeout=START_S) as answer:
-            return answer.status == 200 and "started" in json.loads(answer.read())
-    except (urllib.error.HTTPError, ValueError):
+        with session.open(f"{url}/user/{name}/lab", timeout=START_S) as answer:
+            return answer.status == 200 and answer.url.startswith(f"{url}/user/{name}/lab")
+    except urllib.error.HTTPError:
         return False
 
 
@@ -373,7 +377,7 @@ def attacked(tmp_path_factory: pytest.TempPathFactory) -> Iterator[dict[str, Any
         script,
     )
     env = child_env()
-    env["ROSBOOK_HUB_DIR"] = str(state)
+    env.update(ROSBOOK_HUB_DIR=str(state), ROSBOOK_HUB_QUOTA_MB=str(QUOTA_MB))
     log = (state / "hub.log").open("w")
     try:
         server, url = hub.serve(env, log)
@@ -408,6 +412,73 @@ def test_a_servers_start_follows_no_link_in_the_students_folders(attacked) -> No
     said = attacked["log"].read_text()
     assert f"nbgrader_config.py: a symbolic link to {attacked['made']}" in said, said
     assert f"labconfig: a symbolic link to {attacked['labconfig']}" in said, said
+
+
+def _sandbox_of(server: subprocess.Popen[bytes], name: str) -> int:
+    """The first process (PID 1 inside) of ``name``'s running sandbox, seen from here."""
+    for pid in process_tree(server.pid):
+        try:
+            status = Path(f"/proc/{pid}/status").read_text()
+        except OSError:
+            continue
+        nspid = next(line.split()[1:] for line in status.splitlines() if line.startswith("NSpid"))
+        if nspid[-1] == "1" and f"/user/{name}/" in Path(f"/proc/{pid}/environ").read_text():
+            return pid
+    raise AssertionError(f"no sandbox of {name} under the hub")
+
+
+def _in_sandbox(pid: int, script: str) -> str:
+    """``script`` run by the student in their running sandbox; its output."""
+    done = subprocess.run(
+        enter_argv(pid, HOME, ["/bin/sh", "-c", script]), capture_output=True, text=True,
+        timeout=COMMAND_S,
+    )  # fmt: skip
+    return done.stdout + done.stderr
+
+
+def _save(
+    url: str, name: str, session: urllib.request.OpenerDirector, path: str
+) -> tuple[int, str]:
+    """JupyterLab's save of a new notebook ``path`` (4 MB of text: more than what a full
+    disk keeps free in partly used blocks): its status and answer."""
+    jar = next(h.cookiejar for h in session.handlers if hasattr(h, "cookiejar"))
+    xsrf = next(c.value for c in jar if c.name == "_xsrf" and c.path.startswith(f"/user/{name}"))
+    notebook = nbformat.v4.new_notebook(cells=[nbformat.v4.new_markdown_cell("x" * (4 << 20))])
+    body = json.dumps({"type": "notebook", "format": "json", "content": notebook})
+    request = urllib.request.Request(
+        f"{url}/user/{name}/api/contents/{path}", data=body.encode(), method="PUT",
+        headers={"X-XSRFToken": xsrf, "Content-Type": "application/json"},
+    )  # fmt: skip
+    try:
+        with session.open(request, timeout=START_S) as answer:
+            return answer.status, answer.read().decode()
+    except urllib.error.HTTPError as error:
+        return error.code, error.read().decode()
+
+
+@needs_root
+@pytest.mark.slow
+def test_a_student_at_their_quota_cannot_save_and_their_server_runs_on(attacked) -> None:
+    """ada fills her home past its quota from her own sandbox: the write stops at the
+    quota (the host's disk is not filled), JupyterLab's save says "No space left on
+    device", her server still serves, and once she deletes the file she saves again.
+    Her sandbox's mountinfo shows her home as a device, naming no host folder."""
+    url, state = attacked["url"], attacked["state"]
+    status, session = _log_in(url, "ada", attacked["passwords"]["ada"])
+    assert status == 200, status
+    _wait_for(lambda: _server_answers(url, "ada", session), "ada's server never answered")
+    sandbox = _sandbox_of(attacked["server"], "ada")
+    said = _in_sandbox(sandbox, f"dd if=/dev/zero of=fill bs=1M count={2 * QUOTA_MB}")
+    assert "No space left on device" in said, said
+    assert (state / "home" / "ada" / "fill").stat().st_size <= QUOTA_MB << 20
+    saved, answer = _save(url, "ada", session, "full.ipynb")
+    assert saved == 500 and "No space left on device" in answer, (saved, answer)
+    assert _server_answers(url, "ada", session)
+    _in_sandbox(sandbox, "rm fill")
+    assert _save(url, "ada", session, "room.ipynb")[0] == 201
+    mounts = _in_sandbox(sandbox, "cat /proc/self/mountinfo")
+    home = next(line for line in mounts.splitlines() if f" {HOME} " in line)
+    assert str(state) not in home and home.split()[3] == "/", home
 
 
 @needs_root
