@@ -10,6 +10,7 @@ network of its own). Stopping the hub must leave no process of any student.
 
 from __future__ import annotations
 
+import glob
 import json
 import os
 import re
@@ -17,6 +18,7 @@ import signal
 import socket
 import subprocess
 import sys
+import tempfile
 import time
 import urllib.error
 import urllib.request
@@ -287,6 +289,9 @@ def test_students_are_isolated_and_nothing_survives_the_hub(browser, hub) -> Non
     os.kill(int((state / "jupyterhub.pid").read_text()), signal.SIGINT)
     hub["server"].wait(timeout=STOP_S)
     assert _alive(processes) == []
+    for name in STUDENTS:  # nothing of theirs is left: no sandbox's files, no mounted home
+        assert glob.glob(os.path.join(tempfile.gettempdir(), f"rosbook-hub-{name}-*")) == []
+        assert not os.path.ismount(state / "home" / name), name
 
 
 class _NoRedirect(urllib.request.HTTPRedirectHandler):

@@ -437,13 +437,13 @@ def _in_sandbox(pid: int, script: str) -> str:
 
 
 def _save(
-    url: str, name: str, session: urllib.request.OpenerDirector, path: str
+    url: str, name: str, session: urllib.request.OpenerDirector, path: str, text: str
 ) -> tuple[int, str]:
-    """JupyterLab's save of a new notebook ``path`` (4 MB of text: more than what a full
-    disk keeps free in partly used blocks): its status and answer."""
+    """JupyterLab's save of the notebook ``path`` holding ``text``: its status and
+    answer."""
     jar = next(h.cookiejar for h in session.handlers if hasattr(h, "cookiejar"))
     xsrf = next(c.value for c in jar if c.name == "_xsrf" and c.path.startswith(f"/user/{name}"))
-    notebook = nbformat.v4.new_notebook(cells=[nbformat.v4.new_markdown_cell("x" * (4 << 20))])
+    notebook = nbformat.v4.new_notebook(cells=[nbformat.v4.new_markdown_cell(text)])
     body = json.dumps({"type": "notebook", "format": "json", "content": notebook})
     request = urllib.request.Request(
         f"{url}/user/{name}/api/contents/{path}", data=body.encode(), method="PUT",
@@ -460,22 +460,28 @@ def _save(
 @pytest.mark.slow
 def test_a_student_at_their_quota_cannot_save_and_their_server_runs_on(attacked) -> None:
     """ada fills her home past its quota from her own sandbox: the write stops at the
-    quota (the host's disk is not filled), JupyterLab's save says "No space left on
-    device", her server still serves, and once she deletes the file she saves again.
-    Her sandbox's mountinfo shows her home as a device, naming no host folder."""
+    quota (the host's disk is not filled); JupyterLab's save of her notebook says "No
+    space left on device" and leaves it as it was; her server still serves, and once she
+    deletes the file she saves again. Her sandbox's mountinfo shows her home as a
+    device, naming no host folder."""
     url, state = attacked["url"], attacked["state"]
     status, session = _log_in(url, "ada", attacked["passwords"]["ada"])
     assert status == 200, status
     _wait_for(lambda: _server_answers(url, "ada", session), "ada's server never answered")
+    assert _save(url, "ada", session, "work.ipynb", "first draft")[0] == 201
     sandbox = _sandbox_of(attacked["server"], "ada")
     said = _in_sandbox(sandbox, f"dd if=/dev/zero of=fill bs=1M count={2 * QUOTA_MB}")
     assert "No space left on device" in said, said
     assert (state / "home" / "ada" / "fill").stat().st_size <= QUOTA_MB << 20
-    saved, answer = _save(url, "ada", session, "full.ipynb")
+    # more than a full disk keeps free in partly used blocks
+    longer = "x" * (4 << 20)
+    saved, answer = _save(url, "ada", session, "work.ipynb", longer)
     assert saved == 500 and "No space left on device" in answer, (saved, answer)
+    kept = nbformat.read(state / "home" / "ada" / "work.ipynb", as_version=4)
+    assert kept.cells[0].source == "first draft"
     assert _server_answers(url, "ada", session)
     _in_sandbox(sandbox, "rm fill")
-    assert _save(url, "ada", session, "room.ipynb")[0] == 201
+    assert _save(url, "ada", session, "work.ipynb", longer)[0] == 200
     mounts = _in_sandbox(sandbox, "cat /proc/self/mountinfo")
     home = next(line for line in mounts.splitlines() if f" {HOME} " in line)
     assert str(state) not in home and home.split()[3] == "/", home
@@ -536,6 +542,7 @@ def test_sigterm_to_make_hub_stops_every_process_and_leaves_no_folder(attacked) 
     server.wait(timeout=START_S)
     _wait_for(lambda: not _alive(processes), "processes of the hub outlived it")
     assert glob.glob(os.path.join(tempfile.gettempdir(), "rosbook-hub-ada-*")) == []
+    assert not os.path.ismount(attacked["state"] / "home" / "ada")
 
 
 def _cmdline(pid: int) -> str:
