@@ -42,12 +42,12 @@
   ``collect`` copies each student's latest submission (by the time in its name) from
   their ``inbound`` into the grader's ``SUBMISSIONS/NAME/LAB/`` under their roster
   name (inside, everyone is "student"): folders and regular files only, at most the
-  grader's ``MAX_NOTEBOOK_BYTES`` in all, and ``feedback`` puts the grader's feedback for each student into that
-  student's ``feedback`` only, named as nbgrader's ``fetch_feedback`` looks for it
-  (the hash of their submission's secret and the notebook). Students use the
-  Assignments tab (or ``nbgrader fetch_assignment/validate/submit/fetch_feedback``) as
-  on any nbgrader course; the instructor runs ``python -m coursehub.hub release|collect|
-  feedback`` and ``python -m autograder grade``.
+  grader's ``MAX_NOTEBOOK_BYTES`` in all; and ``feedback`` puts the grader's feedback
+  for each student into that student's ``feedback`` only, named as nbgrader's
+  ``fetch_feedback`` looks for it (the hash of their submission's secret and the
+  notebook). Students use the Assignments tab (or ``nbgrader fetch_assignment/validate/
+  submit/fetch_feedback``) as on any nbgrader course; the instructor runs ``python -m
+  coursehub.hub release|collect|feedback`` and ``python -m autograder grade``.
 - ``RosterAuthenticator``: each student and instructor has a password of their own
   (``python -m coursehub.hub add NAME [--instructor]`` prints it; only its scrypt hash
   is kept); instructors are the hub's admins. Wrong passwords are throttled per
@@ -74,7 +74,7 @@ import sys
 import tempfile
 import time
 import urllib.request
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -477,6 +477,27 @@ def _latest(inbound: int, lab: str, path: Path, log: Callable[[str], None]) -> s
     return max(found)[1] if found else None
 
 
+@contextlib.contextmanager
+def _latest_submission(
+    name: str, lab: str, log: Callable[[str], None]
+) -> Iterator[tuple[int, Path] | None]:
+    """A descriptor of ``name``'s latest submission of ``lab`` in their inbound, and its
+    path (None if they submitted none); ``safefs.Refused`` if a link is in the way."""
+    root = state_dir() / "exchange" / name
+    inbound = root / COURSE / "inbound"
+    _exchange(name)
+    with safefs.folder(root, COURSE, "inbound") as fd:
+        latest = _latest(fd, lab, inbound, log)
+        if latest is None:
+            yield None
+            return
+        submission = safefs.open_folder(fd, latest, inbound / latest)
+        try:
+            yield submission, inbound / latest
+        finally:
+            os.close(submission)
+
+
 def collect(lab: str, submissions: Path, log: Callable[[str], None] = _say) -> list[str]:
     """Each student's latest submission of ``lab`` into ``submissions/NAME/LAB/``: its
     folders and regular files, at most the grader's ``MAX_NOTEBOOK_BYTES`` in all,
@@ -484,23 +505,15 @@ def collect(lab: str, submissions: Path, log: Callable[[str], None] = _say) -> l
     large, is not collected (``log`` names what); the other students' are."""
     collected = []
     for name in _students():
-        root = state_dir() / "exchange" / name
-        inbound = root / COURSE / "inbound"
         target = submissions / name / lab
         partial = target.with_name(f".{lab}.partial")
         try:
-            _exchange(name)
-            with safefs.folder(root, COURSE, "inbound") as fd:
-                latest = _latest(fd, lab, inbound, log)
+            with _latest_submission(name, lab, log) as latest:
                 if latest is None:
                     continue
                 shutil.rmtree(partial, ignore_errors=True)
                 partial.parent.mkdir(parents=True, exist_ok=True)
-                submission = safefs.open_folder(fd, latest, inbound / latest)
-                try:
-                    safefs.copy_out(submission, inbound / latest, partial, MAX_NOTEBOOK_BYTES)
-                finally:
-                    os.close(submission)
+                safefs.copy_out(*latest, partial, MAX_NOTEBOOK_BYTES)
         except safefs.Refused as exc:
             shutil.rmtree(partial, ignore_errors=True)
             log(f"{name}: {exc}")
@@ -520,23 +533,17 @@ def feedback(lab: str, graded: Path, log: Callable[[str], None] = _say) -> list[
     for name in _students():
         pages = sorted((graded / "feedback" / name / lab).glob("*.html"))
         root = state_dir() / "exchange" / name
-        inbound = root / COURSE / "inbound"
         try:
-            _exchange(name)
-            with safefs.folder(root, COURSE, "inbound") as fd:
-                latest = _latest(fd, lab, inbound, log)
+            with _latest_submission(name, lab, log) as latest:
                 if latest is None:
                     continue
-                submission = safefs.open_folder(fd, latest, inbound / latest)
-                try:
-                    secret = safefs.read(
-                        submission, SECRET, inbound / latest / SECRET, MAX_NOTEBOOK_BYTES
-                    ).decode(errors="replace")
-                finally:
-                    os.close(submission)
+                submission, path = latest
+                secret = safefs.read(submission, SECRET, path / SECRET, MAX_NOTEBOOK_BYTES)
             with safefs.folder(root, COURSE, "feedback") as fd:
                 for page in pages:
-                    digest = notebook_hash(secret=secret, notebook_id=page.stem)
+                    digest = notebook_hash(
+                        secret=secret.decode(errors="replace"), notebook_id=page.stem
+                    )
                     there = root / COURSE / "feedback" / f"{digest}.html"
                     safefs.write(fd, there.name, page.read_bytes(), there, OUTSIDE)
         except FileNotFoundError:

@@ -125,13 +125,7 @@ def write(
     """``data`` as the file ``name`` in ``dir_fd``: written under a fresh name, then
     renamed over ``name`` (a link there is replaced, never written through)."""
     fresh = f".{name}.{secrets.token_hex(8)}"
-    fd = os.open(fresh, NEW, 0o644, dir_fd=dir_fd)
-    try:
-        with os.fdopen(fd, "wb", closefd=False) as out:
-            out.write(data)
-        give(fd, owner)
-    finally:
-        os.close(fd)
+    create(dir_fd, fresh, data, Path(path).with_name(fresh), owner)
     try:
         os.rename(fresh, name, src_dir_fd=dir_fd, dst_dir_fd=dir_fd)
     except OSError:
