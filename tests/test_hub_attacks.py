@@ -59,8 +59,16 @@ def state(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Iterator[Path]:
         hub.add(folder / "roster.json", name)
     monkeypatch.setenv("ROSBOOK_HUB_DIR", str(folder))
     for name in STUDENTS:
-        hub._exchange(name)
+        _give_exchange(name, folder)
     yield folder
+
+
+def _give_exchange(name: str, state: Path) -> None:
+    """``name``'s exchange made, and theirs, as their server's start leaves it."""
+    hub._exchange(name)
+    root = state / "exchange" / name
+    for path in (root, *root.rglob("*")):
+        os.chown(path, NOBODY, NOBODY)
 
 
 def exchange(state: Path, name: str) -> Path:
@@ -360,7 +368,7 @@ def attacked(tmp_path_factory: pytest.TempPathFactory) -> Iterator[dict[str, Any
         os.chown(folder, NOBODY, NOBODY)
     os.environ["ROSBOOK_HUB_DIR"] = str(state)
     try:
-        hub._exchange("ada")
+        _give_exchange("ada", state)
     finally:
         del os.environ["ROSBOOK_HUB_DIR"]
     targets = {where: root_file(host / where) for where in ("jupyter", "run", "exchange")}
