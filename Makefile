@@ -51,14 +51,16 @@ lab: $(STAMP)
 	$(ISOLATED) $(BIN)/jupyter lab --config=rosbook/jupyterlab_config.py $(LAB_ARGS) $(LAB_DIR)
 
 ## hub: the course server: JupyterHub at HUB_URL, each student's JupyterLab sandboxed on a
-## network of its own (autograder/hub.py); its proxy comes from npm into .hub/ (not global).
-## People: `.venv/bin/python -m autograder.hub add NAME [--instructor]` prints a password
+## network of its own (coursehub/hub.py); its proxy comes from npm into .hub/ (not global).
+## People: `.venv/bin/python -m coursehub.hub add NAME [--instructor]` prints a password.
+## Ctrl-C, or SIGTERM to make or to the hub, stops the proxy and every student's sandbox
+## (exec: the hub is make's child itself, and stops when make ends).
 HUB_URL ?= http://127.0.0.1:8000
 CHP := .hub/node_modules/.bin/configurable-http-proxy
 $(CHP):
 	npm install --prefix .hub --no-save --no-package-lock configurable-http-proxy@4.6.3
 hub: $(STAMP) $(CHP)
-	ROSBOOK_HUB_URL=$(HUB_URL) $(BIN)/jupyterhub -f autograder/jupyterhub_config.py
+	ROSBOOK_HUB_URL=$(HUB_URL) ROSBOOK_HUB_PARENT=$$PPID exec $(BIN)/jupyterhub -f coursehub/jupyterhub_config.py
 
 ## axe: axe-core, the accessibility rules the browser tests run over every page of the
 ## built book; from npm into .axe/ (not global; needs npm), a pinned version
@@ -84,8 +86,8 @@ bench: $(STAMP)
 	$(BIN)/python -m benchmarks
 
 lint: $(STAMP)
-	$(BIN)/ruff check rosbook autograder tests benchmarks solutions
-	$(BIN)/ruff format --check rosbook autograder tests benchmarks
+	$(BIN)/ruff check rosbook autograder coursehub tests benchmarks solutions
+	$(BIN)/ruff format --check rosbook autograder coursehub tests benchmarks
 
 clean:
 	rm -rf _build grading

@@ -19,9 +19,9 @@ import time
 from collections.abc import Iterator
 from pathlib import Path
 
-from autograder.hub import add, serve, stop
 from autograder.sandbox import process_tree
 from benchmarks import Figure
+from coursehub.hub import add, serve, stop
 from rosbook.book.chromium import chromium_path, launch
 from rosbook.runtime.isolation import child_env
 

@@ -4,7 +4,7 @@ imported at the first request that needs it rather than at the server's start.
 nbgrader's ``assignment_list`` and ``validate_assignment`` server extensions import all of
 nbgrader's applications (nbconvert's exporters, the gradebook's SQLAlchemy, ...) as the
 server starts: about 20 MB in every idle student's server (of 150 MB each). This
-extension, which ``autograder.hub.SandboxSpawner`` turns on in their place (the sandbox
+extension, which ``coursehub.hub.SandboxSpawner`` turns on in their place (the sandbox
 sees ``rosbook``, never ``autograder``), routes their URLs to a router that loads both
 of them, with their own handlers and settings, the first time a student opens the tab or
 validates; from then on nbgrader's handlers answer as they would have from the start.

@@ -10,6 +10,7 @@ network of its own). Stopping the hub must leave no process of any student.
 
 from __future__ import annotations
 
+import glob
 import json
 import os
 import re
@@ -17,6 +18,7 @@ import signal
 import socket
 import subprocess
 import sys
+import tempfile
 import time
 import urllib.error
 import urllib.request
@@ -30,8 +32,8 @@ import psutil
 import pytest
 
 from autograder.config import ROOT
-from autograder.hub import COURSE, add, serve, stop
 from autograder.sandbox import process_tree
+from coursehub.hub import COURSE, add, serve, stop
 from rosbook.runtime.isolation import child_env
 from tests.labtools import answered, assert_counted_from_zero
 from tests.test_jupyterlab import (
@@ -180,7 +182,7 @@ def test_release_submit_grade_and_feedback(browser, hub, tmp_path: Path) -> None
     for name, page in pages.items():
         page.wait_for_url(f"**/user/{name}/lab**", timeout=START_S * 1000)
         page.wait_for_function("() => window.jupyterapp !== undefined", timeout=START_S * 1000)
-    assert _hub_command(hub, "autograder.hub", "release", LAB).split()[2:] == list(STUDENTS)
+    assert _hub_command(hub, "coursehub.hub", "release", LAB).split()[2:] == list(STUDENTS)
     tabs = {name: _assignments_tab(page) for name, page in pages.items()}
     for tab in tabs.values():
         _click_in_tab(tab, "released", "Fetch")
@@ -206,10 +208,10 @@ def test_release_submit_grade_and_feedback(browser, hub, tmp_path: Path) -> None
         submitted = tab.locator("#submitted_assignments_list .list_item", has_text=LAB)
         submitted.first.wait_for(timeout=CELL_S * 1000)
     submissions, graded = tmp_path / "submissions", tmp_path / "graded"
-    collected = _hub_command(hub, "autograder.hub", "collect", LAB, str(submissions))
+    collected = _hub_command(hub, "coursehub.hub", "collect", LAB, str(submissions))
     assert collected.split()[2:] == list(STUDENTS)
     _hub_command(hub, "autograder", "grade", str(submissions), "--out", str(graded))
-    returned = _hub_command(hub, "autograder.hub", "feedback", LAB, str(graded))
+    returned = _hub_command(hub, "coursehub.hub", "feedback", LAB, str(graded))
     assert returned.split()[2:] == list(STUDENTS)
     for tab in tabs.values():
         _click_in_tab(tab, "submitted", "Fetch Feedback")
@@ -287,6 +289,9 @@ def test_students_are_isolated_and_nothing_survives_the_hub(browser, hub) -> Non
     os.kill(int((state / "jupyterhub.pid").read_text()), signal.SIGINT)
     hub["server"].wait(timeout=STOP_S)
     assert _alive(processes) == []
+    for name in STUDENTS:  # nothing of theirs is left: no sandbox's files, no mounted home
+        assert glob.glob(os.path.join(tempfile.gettempdir(), f"rosbook-hub-{name}-*")) == []
+        assert not os.path.ismount(state / "home" / name), name
 
 
 class _NoRedirect(urllib.request.HTTPRedirectHandler):

@@ -1,8 +1,8 @@
-"""``make hub``'s JupyterHub settings (``jupyterhub -f autograder/jupyterhub_config.py``).
+"""``make hub``'s JupyterHub settings (``jupyterhub -f coursehub/jupyterhub_config.py``).
 
 Every student's JupyterLab runs sandboxed on a network of its own
-(``autograder.hub.SandboxSpawner``); people log in with their own password from the
-roster (``autograder.hub.RosterAuthenticator``; instructors are admins). Settings from
+(``coursehub.hub.SandboxSpawner``); people log in with their own password from the
+roster (``coursehub.hub.RosterAuthenticator``; instructors are admins). Settings from
 the environment:
 
 - ``ROSBOOK_HUB_URL``: where students connect (default ``http://127.0.0.1:8000``;
@@ -11,6 +11,8 @@ the environment:
   ``--LabApp.expose_app_in_browser=True``).
 - ``ROSBOOK_HUB_CPUS`` and ``ROSBOOK_HUB_RAM_MB``: what each student's sandbox may
   use in all (its cgroup's CPU quota and memory limit; default 1 CPU and 1024 MB).
+- ``ROSBOOK_HUB_QUOTA_MB``: the size of each student's home, a disk of its own
+  (default ``coursehub.hub.HOME_QUOTA``, 1024 MB; 0: no limit; a hub run as root only).
 - ``ROSBOOK_HUB_DIR``: the hub's state: roster, database, cookie secret, each student's
   home (``home/NAME``) and sockets (default ``.hub/`` in the project).
 - ``ROSBOOK_HUB_LTI13_ISSUER``, ``..._CLIENT_ID``, ``..._AUTHORIZE_URL``,
@@ -26,16 +28,20 @@ import json
 import os
 import shlex
 
-from autograder.hub import (
+from coursehub.hub import (
     ROOT,
     ListeningProxy,
     RosterAuthenticator,
     SandboxSpawner,
     free_port,
     state_dir,
+    stop_with_parent,
 )
 
 c = get_config()  # type: ignore[name-defined]  # noqa: F821  (traitlets config file)
+
+if os.environ.get("ROSBOOK_HUB_PARENT"):  # make hub's: the hub stops when make does
+    stop_with_parent(int(os.environ["ROSBOOK_HUB_PARENT"]))
 
 state = state_dir()
 state.mkdir(parents=True, exist_ok=True)
@@ -77,6 +83,8 @@ c.SandboxSpawner.home_dir_template = str(state / "home" / "{username}")
 c.SandboxSpawner.run_dir = str(state / "run")
 c.SandboxSpawner.cpus = float(os.environ.get("ROSBOOK_HUB_CPUS", "1"))
 c.SandboxSpawner.ram = int(os.environ.get("ROSBOOK_HUB_RAM_MB", "1024")) << 20
+if "ROSBOOK_HUB_QUOTA_MB" in os.environ:  # each student's home (default: HOME_QUOTA)
+    c.SandboxSpawner.quota = int(os.environ["ROSBOOK_HUB_QUOTA_MB"]) << 20
 c.Spawner.default_url = "/lab"
 c.Spawner.args = shlex.split(os.environ.get("ROSBOOK_HUB_LAB_ARGS", ""))
 c.Spawner.http_timeout = 180  # a loaded machine starts JupyterLab slowly
