@@ -88,8 +88,9 @@ from nbgrader.utils import notebook_hash, parse_utc
 from traitlets import Float, Integer, Unicode
 from traitlets.config.loader import PyFileConfigLoader
 
+from autograder import preflight
 from autograder.cgroups import Cgroup
-from autograder.sandbox import HOME, NOBODY, Limits, Network, prepare, start
+from autograder.sandbox import HOME, NOBODY, Limits, Network, prepare, staging_base, start
 from autograder.worker import MAX_NOTEBOOK_BYTES
 from coursehub import homes, relay, safefs
 from rosbook import jupyter_assignments
@@ -241,6 +242,9 @@ class SandboxSpawner(SimpleLocalProcessSpawner):  # type: ignore[misc]
             raise
 
     async def _start(self) -> tuple[str, int]:
+        # A server whose kernels cannot start here fails its spawn with the cause and the
+        # fix (autograder.preflight.NotReady), before anything is made for the student.
+        await asyncio.to_thread(preflight.once)
         # Everything below the hub's own folders (home/NAME, exchange/NAME, the socket
         # folder) is the student's: made and written with coursehub.safefs, never
         # through a link, and given to the sandbox's outside user by descriptor.
@@ -317,7 +321,9 @@ class SandboxSpawner(SimpleLocalProcessSpawner):  # type: ignore[misc]
             f"--ServerApp.sock={RUN}/{SOCKET}",
         ]
         SandboxSpawner._running.add(self)
-        self._private = tempfile.mkdtemp(prefix=f"rosbook-hub-{self.user.name}-")
+        self._private = tempfile.mkdtemp(
+            prefix=f"rosbook-hub-{self.user.name}-", dir=staging_base()
+        )
         launch = prepare(
             cmd,
             network=self._network,
