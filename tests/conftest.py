@@ -37,12 +37,14 @@ SLOW_FIXTURES = {
 #: slow tests follow, then the quick ones.
 LONGEST = (
     "test_trusted_grading.py",  # lab 1's class of attacks, about 300 s
+    "test_benchmarks.py",  # every benchmark topic in its quick mode, about 400 s
     "test_lab05.py",  # a class with a submission whose drive hangs, and the round trip
     "test_judge_process.py",  # mostly waits out the judge's guards: fills others' gaps
     "test_book_scenes.py",  # builds the book unless another file did; 3D rendering
     "test_book_browser.py",  # every page in the browser
     "test_grading_runs.py",
     "test_hub.py",
+    "test_hub_attacks.py",
     "test_trusted_grading_labs.py",
     "test_labs.py",
     "test_lab06.py",
