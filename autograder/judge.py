@@ -36,6 +36,7 @@ from typing import Any
 
 import rclpy
 from jupyter_client.blocking import BlockingKernelClient
+from nbformat import NotebookNode
 from rclpy.context import Context
 from rclpy.event_handler import PublisherEventCallbacks
 from rclpy.executors import SingleThreadedExecutor
@@ -44,6 +45,7 @@ from rclpy.qos import QoSProfile
 from rosgraph_msgs.msg import Clock
 
 from autograder import sandbox
+from autograder.feedback import is_test_cell
 from rosbook.labs.probes import ScriptRun, StillRunning, run_script
 from rosbook.runtime.isolation import reserve_domain
 from rosbook.runtime.session import ros
@@ -87,10 +89,38 @@ class JudgeTimeout(Exception):
 
 
 def judged_checks(assignment_id: str) -> dict[str, Callable[[Judgement], None]]:
-    """The judge's checks of ``assignment_id`` by grade_id (empty: judged in-kernel)."""
+    """The judge's checks of ``assignment_id`` by grade_id (empty: a lab with no judge
+    module, whose test cells all score nothing: ``make labs`` refuses it)."""
     if assignment_id not in JUDGED_LABS:
         return {}
     return importlib.import_module(JUDGED_LABS[assignment_id]).CHECKS  # type: ignore[no-any-return]
+
+
+def missing_check(assignment_id: str, grade_id: str) -> str | None:
+    """Why the judge cannot decide test cell ``grade_id`` of ``assignment_id`` (the lab
+    is not registered, or its module has no check of that name), or None if it can."""
+    module = JUDGED_LABS.get(assignment_id)
+    if module is None:
+        return (
+            f"the lab has no judge module ({assignment_id} is not in JUDGED_LABS, "
+            "autograder/judge.py)"
+        )
+    if grade_id not in judged_checks(assignment_id):
+        return f"{module}.CHECKS has no check named {grade_id!r}"
+    return None
+
+
+def unjudged_cells(assignment_id: str, notebook: NotebookNode) -> list[str]:
+    """``<lab>: test cell <grade_id>: <why>`` for each test cell of ``notebook`` (the
+    lab's source) that the judge cannot decide: such a cell scores nothing when graded."""
+    found = []
+    for cell in notebook.cells:
+        if is_test_cell(cell):
+            grade_id = cell.metadata.nbgrader.get("grade_id", "")
+            why = missing_check(assignment_id, grade_id)
+            if why is not None:
+                found.append(f"{assignment_id}: test cell {grade_id}: {why}")
+    return found
 
 
 def holds_participant(assignment_id: str) -> bool:

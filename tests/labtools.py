@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import copy
 import csv
+import os
 import re
 import shutil
 from pathlib import Path
@@ -76,6 +77,52 @@ def with_cell(notebook: nbformat.NotebookNode, gid: str, source: str) -> nbforma
     raise KeyError(gid)
 
 
+def extra_cell(notebook: nbformat.NotebookNode, source: str, at: int = 2) -> nbformat.NotebookNode:
+    """A student's own cell inserted at ``at`` (default: right after the set-up cell)."""
+    notebook.cells.insert(at, nbformat.v4.new_code_cell(source))
+    return notebook
+
+
+#: A student's cell that prints the source of every later cell the kernel runs, as the
+#: kernel gets it: before it runs and after (IPython's ``pre_run_cell`` and
+#: ``post_run_cell`` events).
+SOURCE_PRINTER = (
+    "ip = get_ipython()\n"
+    "ip.events.register('pre_run_cell', lambda info: print('PRE-RUN:', info.raw_cell))\n"
+    "ip.events.register('post_run_cell', lambda result: print('POST-RUN:', result.info.raw_cell))"
+)
+#: A student's last cell: everything the kernel ran, from IPython's input history.
+HISTORY_PRINTER = "print('HISTORY:', *In, *_ih, sep='\\n')"
+
+
+def output_text(notebook: nbformat.NotebookNode) -> str:
+    """Every text a notebook's cells show: streams, errors, and text/plain or HTML data."""
+    texts = []
+    for cell in notebook.cells:
+        for output in cell.get("outputs", []):
+            texts += [output.get("text", ""), output.get("evalue", "")]
+            texts += output.get("traceback", [])
+            data = output.get("data", {})
+            texts += [data.get("text/plain", ""), data.get("text/html", "")]
+    return "\n".join(t if isinstance(t, str) else "".join(t) for t in texts)
+
+
+def hidden_only_lines(lab: str, solutions: Path = SOLUTIONS, labs: Path = LABS) -> list[str]:
+    """The lines of ``lab``'s hidden tests (source notebook) that appear nowhere in its
+    release: where one shows in a graded submission, a hidden test's source leaked."""
+    source = nbformat.read(solutions / lab / f"{lab}.ipynb", as_version=4)
+    released = nbformat.read(labs / lab / f"{lab}.ipynb", as_version=4)
+    visible = {ln.strip() for c in released.cells for ln in c.source.splitlines()}
+    hidden, inside = [], False
+    for cell in source.cells:
+        for line in cell.source.splitlines():
+            if "BEGIN HIDDEN TESTS" in line or "END HIDDEN TESTS" in line:
+                inside = "BEGIN" in line
+            elif inside and line.strip() and line.strip() not in visible:
+                hidden.append(line.strip())
+    return hidden
+
+
 def submit(
     root: Path, student: str, lab: str, notebook: nbformat.NotebookNode | str | None
 ) -> None:
@@ -132,6 +179,12 @@ def assert_counted_from_zero(log: str) -> None:
 
 def feedback(out: Path, student: str, lab: str) -> str:
     return (out / "feedback" / student / lab / f"{lab}.html").read_text()
+
+
+def live_marked_processes() -> list[int]:
+    """Processes started by a grading job of this test process that are still alive
+    (the grader reserves domains in this, the test, process)."""
+    return marked_processes(os.getpid())
 
 
 def marked_processes(pid: int) -> list[int]:

@@ -23,8 +23,19 @@ import nbformat
 import pytest
 
 from autograder.config import ROOT
-from tests.labtools import answered, feedback, grade_id, replace_in_answer, submit
-from tests.test_lab01 import LAB, extra_cell, wrong
+from tests.labtools import (
+    HISTORY_PRINTER,
+    SOURCE_PRINTER,
+    answered,
+    extra_cell,
+    feedback,
+    grade_id,
+    hidden_only_lines,
+    output_text,
+    replace_in_answer,
+    submit,
+)
+from tests.test_lab01 import LAB, wrong
 
 #: Each case grades attack notebooks with the documented command: out of `make test-fast`.
 pytestmark = pytest.mark.slow
@@ -134,6 +145,9 @@ def graded(tmp_path_factory: pytest.TempPathFactory) -> tuple[dict[str, dict[str
     submit(root, "spin_stuck_in_cell", LAB, answered(LAB, **stuck))
     for name, source in ATTACKS.items():
         submit(root, name, LAB, extra_cell(wrong(), source))
+    reader = extra_cell(answered(LAB), SOURCE_PRINTER)
+    reader.cells.append(nbformat.v4.new_code_cell(HISTORY_PRINTER))
+    submit(root, "hidden_source_reader", LAB, reader)
     submit(root, SHIPPED, LAB, wrong())
     ship_rosbook(root)
     out = tmp_path_factory.mktemp("out")
@@ -204,6 +218,24 @@ def test_cells_after_one_that_keeps_the_kernel_busy_are_not_run_and_say_so(grade
         )
     log = (out / "logs" / "spin_stuck_in_cell" / f"{LAB}.log").read_text()
     assert "[judge] test_doubler" not in log and "[judge] test_talker_script" not in log, log
+
+
+def test_the_kernel_never_gets_a_hidden_test_and_the_lab_still_grades_right(graded) -> None:
+    """A student's IPython hooks print every cell's source before and after it runs, and
+    a last cell prints the input history: none of them, nor the feedback, shows a line
+    of the hidden tests (the kernel gets each test cell as released); the right answer
+    still earns every point, hidden checks included (the judge runs them)."""
+    rows, out = graded
+    r = rows["hidden_source_reader"]
+    assert (r["score"], r["status"]) == ("10", "ok"), r
+    autograded = out / "autograded" / "hidden_source_reader" / LAB / f"{LAB}.ipynb"
+    seen = output_text(nbformat.read(autograded, as_version=4))
+    seen += html.unescape(feedback(out, "hidden_source_reader", LAB))
+    assert "POST-RUN:" in seen and "HISTORY:" in seen
+    assert "checks.make_node(Doubler)" in seen  # a visible test line: the readers saw tests
+    hidden = hidden_only_lines(LAB)
+    assert len(hidden) > 20
+    assert [line for line in hidden if line in seen] == []
 
 
 @pytest.mark.parametrize("attack", [*ATTACKS, SHIPPED])

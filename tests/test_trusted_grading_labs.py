@@ -20,8 +20,15 @@ import nbformat
 import pytest
 
 from autograder.config import ROOT
-from tests.labtools import answered, feedback, grade, replace_in_answer, submit
-from tests.test_lab01 import extra_cell
+from tests.labtools import (
+    answered,
+    extra_cell,
+    feedback,
+    grade,
+    live_marked_processes,
+    replace_in_answer,
+    submit,
+)
 from tests.test_trusted_grading import ATTACKS, NEUTER
 
 #: Each case grades attack notebooks with the documented command: out of `make test-fast`.
@@ -102,7 +109,6 @@ def attacked_release(
 def test_lab6_builds_and_launches_are_judged_outside_the_kernel(tmp_path: Path) -> None:
     """Lab 6's checks skipped or replaced in the kernel earn nothing: the judge builds,
     runs and launches the student's work itself; and no process is left behind."""
-    from tests.test_lab01 import live_marked_processes
 
     lab6 = "lab06_launch_system"
     # test_two_robots: its check is a module function, replaced
