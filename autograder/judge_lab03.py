@@ -57,49 +57,6 @@ CLOCK_RETRY_S = 0.2
 #: messages' arrival): generous, a loaded machine takes seconds to discover a node.
 LOCKSTEP_GUARD_S = 3 * EVENT_GUARD_S
 
-#: The agent's methods for lab 3 (see ``judge.AGENT``).
-AGENT_LAB03 = r"""
-def _judge_services(self):
-    self._answer(self.node.get_service_names_and_types_by_node(
-        self.node.get_name(), self.node.get_namespace()))
-
-
-def _judge_call_trigger(self, function, service, timeout_s, deadline_s, server_up, discovery):
-    from rclpy.node import Node
-    from std_srvs.srv import Trigger
-    from rosbook import ros
-    from rosbook.runtime.services import run_with_deadline
-    self.stop()
-    ros.init()
-    self.node = node = Node("trigger_check_client")
-    if server_up:  # so that timeout_s is spent on the call, not on discovery
-        seen = node.create_client(Trigger, service)
-        found = seen.wait_for_service(timeout_sec=discovery)
-        node.destroy_client(seen)
-        if not found:
-            self._answer({"discovered": False})
-            return
-    student = get_ipython().user_ns[function]
-    outcome = run_with_deadline(lambda: student(node, service, timeout_s), deadline_s)
-    finished = outcome.finished
-    unblocked = not finished and ros.spin_until(lambda: outcome.finished, node, timeout=1.0)
-    value = outcome.value
-    shown = self._plain(value)
-    if hasattr(value, "get_fields_and_field_types"):
-        fields = {k: getattr(value, k) for k in value.get_fields_and_field_types()}
-        if all(isinstance(v, (bool, int, float, str)) for v in fields.values()):
-            shown["fields"] = fields
-    error = outcome.error
-    self._answer({
-        "discovered": True, "finished": finished, "unblocked": bool(unblocked),
-        "raised": None if error is None else [type(error).__name__, str(error)[:300]],
-        "value": shown, "seconds": outcome.seconds,
-    })
-
-
-_RosbookJudgeAgent.services = _judge_services
-_RosbookJudgeAgent.call_trigger = _judge_call_trigger
-"""
 
 #: Wall-clock guard of the agent's following /clock while the judge holds a time (it
 #: calls services and sets parameters meanwhile).
@@ -112,7 +69,7 @@ class NodeRaised(Exception):
 
 class RemoteClock:
     """``/clock`` of the judge's, followed in lockstep by the student's node in the kernel
-    (``AGENT.follow_clock``), with the ``now`` / ``advance`` of a ``SimClock``.
+    (``JudgeAgent.follow_clock``), with the ``now`` / ``advance`` of a ``SimClock``.
 
     After each step the kernel says its node ran the due callbacks and how many messages
     it published (``published``: by topic, and action feedback under "feedback"); the
@@ -252,7 +209,7 @@ FOREVER_S = 1e6
 def remote_clock(j: Judgement, name: str, gate: str | None = None) -> Iterator[RemoteClock]:
     """A ``RemoteClock`` for node ``name`` for the time of the block (with ``gate``, a
     time moves on in the kernel once the node took a message on that topic stamped with
-    it: ``AGENT.follow_clock``). The kernel's following always ends with it; an exception
+    it: ``JudgeAgent.follow_clock``). The kernel's following always ends with it; an exception
     the node's callbacks raised there comes out as a ``KernelError``, which wins over what
     the judge saw of it (it says why)."""
     clock = RemoteClock(j, name, gate)
@@ -299,7 +256,6 @@ def check_clock_server(j: Judgement) -> None:
         ros.reset()
         info = j.start_node("ClockServer", sim_time=True, **kwargs)
         require_name(info, _made("ClockServer", kwargs), name)
-        j.kernel.define(AGENT_LAB03)
         own = j.kernel.call("services")
         service_checks.assert_service_in(name, "/" + name, own, "what_time", Trigger)
         with kernel_errors_explained(name), remote_clock(j, name) as clock:
@@ -410,7 +366,6 @@ def trigger_call(
 ) -> tuple[Any, float]:
     """The student's ``call_trigger(node, service, timeout_s)``, run by the agent on a
     node of its own: (the value it returned, seconds it took)."""
-    j.kernel.define(AGENT_LAB03)
     try:
         got = j.kernel.call(
             "call_trigger",

@@ -44,8 +44,8 @@ def test_the_judge_starts_with_the_submission_before_any_cell() -> None:
 
 
 def test_an_assignment_without_judged_checks_starts_no_judge() -> None:
-    """Every lab of the course is judged; an assignment an instructor adds without a
-    judge module (its test cells score in the kernel, as nbgrader's do) costs none."""
+    """Every lab of the course is judged; an assignment without a judge module (``make
+    labs`` refuses it, and graded, its test cells score nothing) starts no judge."""
     assert judge.judged_checks("lab99_new") == {}
     with judging("lab99_new") as run:
         assert run.process is None
@@ -101,7 +101,7 @@ def test_closing_a_kernel_sends_it_nothing(tmp_path: Path) -> None:
 
 class Following:
     """The kernel's node following a ``/clock`` of the test's own node ``name``
-    (``AGENT.follow_clock`` up to ``until``), once it has said its first ack; ``acked``
+    (``JudgeAgent.follow_clock`` up to ``until``), once it has said its first ack; ``acked``
     holds its acks as the judge reads them."""
 
     def __init__(
