@@ -46,7 +46,7 @@ from rosgraph_msgs.msg import Clock
 
 from autograder import sandbox
 from autograder.feedback import is_test_cell
-from rosbook.labs.probes import ScriptRun, StillRunning, run_script
+from rosbook.labs.probes import CheckFailed, ScriptRun, StillRunning, run_script
 from rosbook.runtime.isolation import reserve_domain
 from rosbook.runtime.session import ros
 
@@ -78,10 +78,6 @@ class Verdict:
     #: What the check showed of the runs it judged (nbformat ``display_data`` outputs,
     #: figures of the lab's ``show_*``), in order: the cell's output shows them.
     outputs: list[dict[str, Any]] = field(default_factory=list)
-
-
-class CheckFailed(AssertionError):
-    """The student's code did not do what the check expects (the message says how)."""
 
 
 class JudgeTimeout(Exception):

@@ -29,7 +29,9 @@ from autograder.judge import (
     _python_value,
     ros_node,
 )
-from autograder.judge_lab01 import require_endpoint
+from autograder.lockstep import (
+    require_endpoint,
+)
 from rosbook.demos.qos import predict_processed
 from rosbook.labs import lab02 as qos_checks
 from rosbook.runtime.session import ros
