@@ -20,9 +20,11 @@ from pathlib import Path
 import nbformat
 import pytest
 
-from autograder.config import ROOT, SOLUTIONS, lab_ids
+from autograder.config import LABS, ROOT, SOLUTIONS, lab_ids
 from autograder.course import generate
+from autograder.feedback import is_test_cell
 from autograder.judge import unjudged_cells
+from autograder.verdicts import sent_to_kernel
 from autograder.worker import Job
 from tests.labtools import (
     HISTORY_PRINTER,
@@ -43,6 +45,19 @@ FORGE = "get_ipython().input_transformers_post.append(lambda lines: ['pass\\n'])
 def test_every_test_cell_of_every_lab_in_solutions_has_a_judge_check(lab: str) -> None:
     notebook = nbformat.read(SOLUTIONS / lab / f"{lab}.ipynb", as_version=4)
     assert unjudged_cells(lab, notebook) == []
+
+
+@pytest.mark.parametrize("lab", lab_ids())
+def test_a_student_has_each_test_cell_as_grading_sends_it_to_the_kernel(lab: str) -> None:
+    """The released lab (what ``make check`` runs) holds each test cell without its
+    hidden tests, exactly as grading sends it to the student's kernel: neither ever
+    has a hidden test."""
+    source = nbformat.read(SOLUTIONS / lab / f"{lab}.ipynb", as_version=4)
+    released = nbformat.read(LABS / lab / f"{lab}.ipynb", as_version=4)
+    sent = {grade_id(c): sent_to_kernel(c).source for c in source.cells if is_test_cell(c)}
+    shown = {grade_id(c): c.source for c in released.cells if is_test_cell(c)}
+    assert sent == shown
+    assert all("HIDDEN TESTS" not in text for text in sent.values())
 
 
 def test_a_grade_id_missing_from_its_judge_module_is_named_with_the_module() -> None:
