@@ -191,12 +191,11 @@ def lab_attacks(lab: str) -> dict[str, str]:
     test cells (all call the lab's checks module) turned into `pass`; the checks replaced
     before every cell by a hook; the checks module patched once."""
     module = JUDGED_MODULES[lab]
-    alias = "qos_checks" if lab == "lab02_qos" else "service_checks"
     return {
         "input_transformer": ATTACKS["input_transformer"],
         "test_cells_transformed": (
             "get_ipython().input_transformers_post.append(\n"
-            f"    lambda lines: ['pass\\n'] if '{alias}.' in ''.join(lines) else lines)"
+            "    lambda lines: ['pass\\n'] if 'checks.' in ''.join(lines) else lines)"
         ),
         "pre_run_cell_hook": ATTACKS["pre_run_cell_hook"].replace("rosbook.labs.lab01", module),
         "patched_checks": f"import {module} as _m" + NEUTER,
