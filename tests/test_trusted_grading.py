@@ -11,7 +11,6 @@ worker grades them meanwhile).
 
 from __future__ import annotations
 
-import base64
 import csv
 import html
 import shutil
@@ -24,7 +23,9 @@ import pytest
 
 from autograder.config import ROOT
 from tests.labtools import (
+    ATTACKS,
     HISTORY_PRINTER,
+    NEUTER,
     SOURCE_PRINTER,
     answered,
     extra_cell,
@@ -39,66 +40,6 @@ from tests.test_lab01 import LAB, wrong
 
 #: Each case grades attack notebooks with the documented command: out of `make test-fast`.
 pytestmark = pytest.mark.slow
-
-#: Replaces every check in the module ``_m`` (except building the node) by a mock
-#: that accepts anything: the test cells then pass in the kernel whatever the code does.
-NEUTER = """
-from unittest import mock as _mock
-for _name in list(vars(_m)):
-    if not _name.startswith('_') and _name != 'make_node' and callable(getattr(_m, _name)):
-        setattr(_m, _name, _mock.MagicMock())
-"""
-
-ATTACKS = {
-    # The kernel runs every later cell, hidden tests included, as `pass`.
-    "input_transformer": "get_ipython().input_transformers_post.append(lambda lines: ['pass\\n'])",
-    # Test cells (they call checks.) become SystemExit, every other cell runs.
-    "system_exit": (
-        "get_ipython().input_transformers_post.append(\n"
-        "    lambda lines: ['raise SystemExit(0)\\n'] if 'checks.' in ''.join(lines) else lines)"
-    ),
-    # Before every cell, the checks are replaced again.
-    "pre_run_cell_hook": (
-        "def _hook(info):\n    import rosbook.labs.lab01 as _m\n"
-        + "\n".join("    " + ln for ln in NEUTER.strip().splitlines())
-        + "\nget_ipython().events.register('pre_run_cell', _hook)"
-    ),
-    # Errors are neither shown nor reported: the cell looks like it passed.
-    "post_run_cell_hook": (
-        "ip = get_ipython()\nip.showtraceback = lambda *a, **k: None\n"
-        "def _clear(result):\n    result.error_in_exec = None\n"
-        "ip.events.register('post_run_cell', _clear)"
-    ),
-    # Cells that call the checks are run as `pass`.
-    "run_cell_replaced": (
-        "ip = get_ipython()\n_run, _run_async = ip.run_cell, ip.run_cell_async\n"
-        "def _skip(cell):\n    return 'pass' if 'checks.' in cell else cell\n"
-        "ip.run_cell = lambda raw_cell, *a, **k: _run(_skip(raw_cell), *a, **k)\n"
-        "ip.run_cell_async = lambda raw_cell, *a, **k: _run_async(_skip(raw_cell), *a, **k)"
-    ),
-    "importlib": "import importlib\n_m = importlib.import_module('rosbook.labs.lab01')" + NEUTER,
-    "alias": "import rosbook.labs.lab01 as _m" + NEUTER,
-    "sys_modules": "import sys\n_m = sys.modules['rosbook.labs.lab01']" + NEUTER,
-    "gc": (
-        "import gc\n_m = next(o for o in gc.get_objects()\n"
-        "          if type(o).__name__ == 'module' and o.__name__ == 'rosbook.labs.lab01')" + NEUTER
-    ),
-    "exec_base64": (
-        "import base64\nexec(base64.b64decode("
-        + repr(base64.b64encode(("import rosbook.labs.lab01 as _m" + NEUTER).encode()).decode())
-        + "))"
-    ),
-    # `checks` is looked up in the builtins once the notebook's own name is gone.
-    "builtins_override": (
-        "import builtins, types\n_m = types.SimpleNamespace(**vars(checks))"
-        + NEUTER
-        + "builtins.checks = _m\ndel checks"
-    ),
-    # A test cell's output that says "pass", and no error output at all.
-    "fake_pass_printed": (
-        "ip = get_ipython()\nip.showtraceback = lambda *a, **k: print('PASS: all checks passed')"
-    ),
-}
 
 #: The attack that ships a package: the submission folder holds its own `rosbook`
 #: (the real one, with neutered checks), first on the kernel's sys.path.

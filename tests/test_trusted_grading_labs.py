@@ -21,6 +21,8 @@ import pytest
 
 from autograder.config import ROOT
 from tests.labtools import (
+    ATTACKS,
+    NEUTER,
     answered,
     extra_cell,
     feedback,
@@ -29,7 +31,6 @@ from tests.labtools import (
     replace_in_answer,
     submit,
 )
-from tests.test_trusted_grading import ATTACKS, NEUTER
 
 #: Each case grades attack notebooks with the documented command: out of `make test-fast`.
 pytestmark = pytest.mark.slow
