@@ -199,6 +199,9 @@ class JudgedExecute(CappedExecute):  # type: ignore[misc]
         else:  # nothing of it ran in the kernel, or nothing there is scored: the verdict
             outputs = [*ran, *shown, verdict_output(verdict)]
         cell.outputs, cell.execution_count = outputs, sent.get("execution_count")
+        # nbclient put the copy it ran in the notebook: the graded notebook keeps the
+        # instructor's cell (hidden tests and all) for nbgrader and the gradebook
+        self.nb.cells[index] = cell
         return cell, resources
 
 

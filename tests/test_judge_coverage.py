@@ -141,8 +141,12 @@ def graded(template: Path, tmp: Path, notebook: nbformat.NotebookNode) -> tuple[
     )  # fmt: skip
     result = worker_grades(job)
     autograded = tmp / "course" / "autograded" / "student" / LAB / f"{LAB}.ipynb"
-    outputs = output_text(nbformat.read(autograded, as_version=4))
-    return result, outputs + html.unescape((tmp / "feedback.html").read_text())
+    notebook = nbformat.read(autograded, as_version=4)
+    # the graded notebook (the instructor's view) keeps the instructor's test cell
+    source = nbformat.read(FIXTURES / LAB / f"{LAB}.ipynb", as_version=4)
+    tests = {grade_id(c): c.source for c in source.cells if is_test_cell(c)}
+    assert {grade_id(c): c.source for c in notebook.cells if is_test_cell(c)} == tests
+    return result, output_text(notebook) + html.unescape((tmp / "feedback.html").read_text())
 
 
 @pytest.mark.slow
@@ -159,6 +163,7 @@ def test_an_unjudged_test_cell_scores_nothing_and_the_kernel_never_sees_its_hidd
     assert (result["score"], result["status"]) == (0, "error"), result
     assert "test_greeter (not graded: the lab has no judge module" in str(result["message"])
     assert "PRE-RUN:" in seen, seen[:3000]  # the hooks ran
+    assert "GraderError: not graded: the lab has no judge module" in seen  # the cell says why
     if not forged:  # (forged, the last cell runs as ``pass`` too)
         assert "HISTORY:" in seen, seen[:3000]
         assert "Greeter declares 'name'" in seen  # the visible part of the test ran

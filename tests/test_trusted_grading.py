@@ -170,8 +170,9 @@ def test_the_kernel_never_gets_a_hidden_test_and_the_lab_still_grades_right(grad
     r = rows["hidden_source_reader"]
     assert (r["score"], r["status"]) == ("10", "ok"), r
     autograded = out / "autograded" / "hidden_source_reader" / LAB / f"{LAB}.ipynb"
-    seen = output_text(nbformat.read(autograded, as_version=4))
-    seen += html.unescape(feedback(out, "hidden_source_reader", LAB))
+    page = html.unescape(feedback(out, "hidden_source_reader", LAB))
+    assert page.count("passed: the grader checked this cell on your code") == 4
+    seen = output_text(nbformat.read(autograded, as_version=4)) + page
     assert "POST-RUN:" in seen and "HISTORY:" in seen
     assert "checks.make_node(Doubler)" in seen  # a visible test line: the readers saw tests
     hidden = hidden_only_lines(LAB)
