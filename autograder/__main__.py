@@ -9,7 +9,7 @@ import sys
 import tempfile
 from pathlib import Path
 
-from autograder.config import CELL_TIMEOUT_S, LABS, lab_ids
+from autograder.config import CELL_TIMEOUT_S, LABS, SOLUTIONS, lab_ids
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -62,6 +62,12 @@ def main(argv: list[str] | None = None) -> int:
 
     labs = sub.add_parser("labs", help="regenerate labs/ from solutions/")
     labs.add_argument("ids", nargs="*", help="labs to regenerate (default: all)")
+    labs.add_argument(
+        "--solutions",
+        type=Path,
+        default=SOLUTIONS,
+        help="the instructor's source folder (default: solutions/)",
+    )
 
     c = sub.add_parser("check", help="run a lab notebook's visible checks")
     c.add_argument("notebook", type=Path, help="a lab notebook, or a lab id")
@@ -85,12 +91,7 @@ def main(argv: list[str] | None = None) -> int:
     if args.command == "grade":
         return grade(args, argv if argv is not None else sys.argv[1:])
     if args.command == "labs":
-        from autograder.course import release_lab
-
-        for lab in args.ids or lab_ids():
-            with tempfile.TemporaryDirectory() as tmp:
-                print(f"generated {release_lab(lab, Path(tmp)).relative_to(LABS.parent)}")
-        return 0
+        return labs_command(args.ids or lab_ids(args.solutions), args.solutions)
     from autograder.check import check, report
 
     path = args.notebook
@@ -116,6 +117,35 @@ def ready(sandboxed: bool = True) -> float | None:
     except preflight.NotReady as exc:
         print(f"error: {exc}", file=sys.stderr)
         return None
+
+
+def labs_command(ids: list[str], solutions: Path) -> int:
+    """Regenerate ``labs/`` for ``ids``; none is released if a test cell of any of them
+    has no check in the judge (each such cell is named, with why)."""
+    from autograder.course import UnjudgedLab, refuse_unjudged, release_lab
+
+    refused = []
+    for lab in ids:
+        try:
+            refuse_unjudged(lab, solutions)
+        except UnjudgedLab as exc:
+            refused += str(exc).splitlines()
+        except FileNotFoundError:
+            refused.append(f"{lab}: no notebook {solutions / lab / (lab + '.ipynb')}")
+    if refused:
+        for line in refused:
+            print(f"error: {line}", file=sys.stderr)
+        print(
+            "error: a test cell the judge cannot decide would score nothing when graded; "
+            "add its check (CONTRIBUTING.md: Adding a lab). Nothing was generated.",
+            file=sys.stderr,
+        )
+        return 1
+    for lab in ids:
+        with tempfile.TemporaryDirectory() as tmp:
+            released = release_lab(lab, Path(tmp), solutions=solutions)
+            print(f"generated {released.relative_to(LABS.parent)}")
+    return 0
 
 
 def grade(args: argparse.Namespace, argv: list[str]) -> int:

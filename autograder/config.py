@@ -41,6 +41,6 @@ def nbgrader_config(course_root: Path, **overrides: object) -> Config:
     return config
 
 
-def lab_ids() -> list[str]:
-    """Every lab in ``solutions/``, in order."""
-    return sorted(p.name for p in SOLUTIONS.iterdir() if (p / f"{p.name}.ipynb").exists())
+def lab_ids(solutions: Path = SOLUTIONS) -> list[str]:
+    """Every lab in ``solutions`` (default: ``solutions/``), in order."""
+    return sorted(p.name for p in solutions.iterdir() if (p / f"{p.name}.ipynb").exists())

@@ -42,13 +42,21 @@ def api(course_root: Path, **overrides: object) -> NbGraderAPI:
     return NbGraderAPI(coursedir=CourseDirectory(config=config), config=config)
 
 
-def generate(course_root: Path, assignment_id: str) -> Path:
-    """Run ``generate_assignment`` into ``course_root``; return the released folder.
+class UnjudgedLab(ValueError):
+    """A lab has test cells the judge cannot decide: it is not released (one line each)."""
+
+
+def generate(course_root: Path, assignment_id: str, solutions: Path = SOLUTIONS) -> Path:
+    """Run ``generate_assignment`` of ``solutions/<assignment_id>`` into ``course_root``;
+    return the released folder.
 
     Also records the assignment, with its hidden tests, in the course's gradebook.
     """
     course_root.mkdir(parents=True, exist_ok=True)
-    result = api(course_root).generate_assignment(assignment_id, force=True, create=True)
+    overrides = {"CourseDirectory.source_directory": str(solutions)}
+    result = api(course_root, **overrides).generate_assignment(
+        assignment_id, force=True, create=True
+    )
     if not result["success"]:
         raise NbgraderError(
             f"generate_assignment {assignment_id} failed:\n{result.get('error') or result['log']}"
@@ -56,9 +64,24 @@ def generate(course_root: Path, assignment_id: str) -> Path:
     return course_root / "release" / assignment_id
 
 
-def release_lab(assignment_id: str, work_dir: Path, labs_dir: Path = LABS) -> Path:
-    """Regenerate ``labs/<id>/`` from ``solutions/<id>/`` (never edit labs/ by hand)."""
-    released = generate(work_dir, assignment_id)
+def refuse_unjudged(assignment_id: str, solutions: Path = SOLUTIONS) -> None:
+    """Raise ``UnjudgedLab`` naming each test cell of the lab's source notebook that the
+    judge has no check for: graded, such a cell would score nothing."""
+    from autograder.judge import unjudged_cells
+
+    notebook = nbformat.read(solutions / assignment_id / f"{assignment_id}.ipynb", as_version=4)
+    problems = unjudged_cells(assignment_id, notebook)
+    if problems:
+        raise UnjudgedLab("\n".join(problems))
+
+
+def release_lab(
+    assignment_id: str, work_dir: Path, labs_dir: Path = LABS, solutions: Path = SOLUTIONS
+) -> Path:
+    """Regenerate ``labs/<id>/`` from ``solutions/<id>/`` (never edit labs/ by hand);
+    a lab with a test cell the judge cannot decide is refused (``UnjudgedLab``)."""
+    refuse_unjudged(assignment_id, solutions)
+    released = generate(work_dir, assignment_id, solutions)
     target = labs_dir / assignment_id
     if target.exists():
         shutil.rmtree(target)

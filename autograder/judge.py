@@ -36,6 +36,7 @@ from typing import Any
 
 import rclpy
 from jupyter_client.blocking import BlockingKernelClient
+from nbformat import NotebookNode
 from rclpy.context import Context
 from rclpy.event_handler import PublisherEventCallbacks
 from rclpy.executors import SingleThreadedExecutor
@@ -44,7 +45,8 @@ from rclpy.qos import QoSProfile
 from rosgraph_msgs.msg import Clock
 
 from autograder import sandbox
-from rosbook.labs.probes import ScriptRun, StillRunning, run_script
+from autograder.feedback import is_test_cell
+from rosbook.labs.probes import CheckFailed, ScriptRun, StillRunning, run_script
 from rosbook.runtime.isolation import reserve_domain
 from rosbook.runtime.session import ros
 
@@ -78,19 +80,43 @@ class Verdict:
     outputs: list[dict[str, Any]] = field(default_factory=list)
 
 
-class CheckFailed(AssertionError):
-    """The student's code did not do what the check expects (the message says how)."""
-
-
 class JudgeTimeout(Exception):
     """A hang guard was hit: the verdict is "timeout", never "wrong"."""
 
 
 def judged_checks(assignment_id: str) -> dict[str, Callable[[Judgement], None]]:
-    """The judge's checks of ``assignment_id`` by grade_id (empty: judged in-kernel)."""
+    """The judge's checks of ``assignment_id`` by grade_id (empty: a lab with no judge
+    module, whose test cells all score nothing: ``make labs`` refuses it)."""
     if assignment_id not in JUDGED_LABS:
         return {}
     return importlib.import_module(JUDGED_LABS[assignment_id]).CHECKS  # type: ignore[no-any-return]
+
+
+def missing_check(assignment_id: str, grade_id: str) -> str | None:
+    """Why the judge cannot decide test cell ``grade_id`` of ``assignment_id`` (the lab
+    is not registered, or its module has no check of that name), or None if it can."""
+    module = JUDGED_LABS.get(assignment_id)
+    if module is None:
+        return (
+            f"the lab has no judge module ({assignment_id} is not in JUDGED_LABS, "
+            "autograder/judge.py)"
+        )
+    if grade_id not in judged_checks(assignment_id):
+        return f"{module}.CHECKS has no check named {grade_id!r}"
+    return None
+
+
+def unjudged_cells(assignment_id: str, notebook: NotebookNode) -> list[str]:
+    """``<lab>: test cell <grade_id>: <why>`` for each test cell of ``notebook`` (the
+    lab's source) that the judge cannot decide: such a cell scores nothing when graded."""
+    found = []
+    for cell in notebook.cells:
+        if is_test_cell(cell):
+            grade_id = cell.metadata.nbgrader.get("grade_id", "")
+            why = missing_check(assignment_id, grade_id)
+            if why is not None:
+                found.append(f"{assignment_id}: test cell {grade_id}: {why}")
+    return found
 
 
 def holds_participant(assignment_id: str) -> bool:
@@ -127,293 +153,12 @@ def shared_env(assignment_id: str, folder: Path) -> dict[str, str]:
 
 # -- the kernel side -----------------------------------------------------------------
 
-#: Defined in the student's kernel before the first check. It builds the student's node
-#: with the judge's parameters and spins it when asked. It runs as the student, so it
-#: may be changed or broken by the student's code: that can only make the judge see
-#: less, and seeing less never passes a check.
-AGENT = r'''
-class _RosbookJudgeAgent:
-    def __init__(self):
-        self.node = None
-        self.executor = None
-        self.ackers = []
-        self.reply = "null"
-
-    def _answer(self, value):
-        import json
-        self.reply = json.dumps(value)
-
-    def start(self, factory, kwargs, sim_time, parameters=None):
-        from rclpy.parameter import Parameter
-        from rosbook import ros
-        from rosbook.runtime.callbacks import WakingExecutor
-        self.stop()
-        ros.init(sim_time=sim_time)
-        ros.hold_participant()  # the next check's node is seen at once: same participant
-        ros.reset()
-        if parameters:
-            kwargs = dict(kwargs, parameter_overrides=[
-                Parameter(name, value=value) for name, value in parameters.items()])
-        self.node = get_ipython().user_ns[factory](**kwargs)
-        self.executor = WakingExecutor()
-        self.executor.add_node(self.node)
-        name, ns = self.node.get_name(), self.node.get_namespace()
-        self._answer({
-            "name": name, "namespace": ns,
-            "publishers": self.node.get_publisher_names_and_types_by_node(name, ns),
-            "subscriptions": self.node.get_subscriber_names_and_types_by_node(name, ns),
-        })
-
-    def follow_clock(self, until, guard, gate=None):
-        """Spin the node on the judge's /clock up to ``until``. After each new time, once
-        its due callbacks ran, say on /rosbook_judge/clock_ack the time and how many
-        messages it has published on each topic, and action feedback messages under
-        "feedback" (the judge waits for them to arrive, then publishes the next time);
-        "feedback_at" lists the node's clock (ns) at each feedback, for the pacing of an
-        action, whose feedback can be sent while the judge holds a time; "taken" counts
-        the messages its subscriptions' callbacks took, by topic (said again at once when
-        it grows: the judge sends a sensor reading and waits for it to be taken before it
-        moves time on); "readers" lists, by topic the node publishes on, the subscriptions
-        (GIDs) its participant has discovered: a publisher sends only to those it knows,
-        so the judge waits to be among them before it lets the node send.
-
-        When a callback of the node raises, a last ack says so ("raised") and the error
-        ends the call.
-
-        With ``gate`` (a topic the node subscribes to), the reading carries the time:
-        once the node has taken a message on ``gate`` stamped T, its /clock subscriptions
-        get time T (a /clock message for T, made here), so its timers at T run after its
-        callback took the reading; a /clock message from the judge for a time not reached
-        yet is held until then (one message and one round trip per step)."""
-        import json
-        import time
-        import rclpy
-        from rclpy.action.server import ServerGoalHandle
-        from rclpy.publisher import Publisher
-        from std_msgs.msg import String
-        from rosbook.runtime.callbacks import Callbacks
-        acker = rclpy.create_node("rosbook_judge_agent")
-        ack = acker.create_publisher(String, "/rosbook_judge/clock_ack", 10)
-        counts = {}
-        feedback_at = []
-        original = Publisher.publish
-
-        def counted(publisher, msg):
-            counts[publisher.topic_name] = counts.get(publisher.topic_name, 0) + 1
-            return original(publisher, msg)
-
-        def counted_feedback(handle, feedback):
-            counts["feedback"] = counts.get("feedback", 0) + 1
-            feedback_at.append(self.node.get_clock().now().nanoseconds)
-            return original_feedback(handle, feedback)
-
-        name, ns = self.node.get_name(), self.node.get_namespace()
-        sending = [topic for topic, _ in self.node.get_publisher_names_and_types_by_node(name, ns)
-                   if topic not in ("/rosout", "/parameter_events")]
-
-        # Listing the readers is a graph query: listed afresh when the node's publishers'
-        # match counts change, and on each repeated ack (while the judge waits to be known).
-        matching = [p for p in self.node.publishers if p.topic_name in sending]
-        listed = {"counts": None, "readers": {}}
-
-        def readers(fresh):
-            counts_now = [p.get_subscription_count() for p in matching]
-            if fresh or counts_now != listed["counts"]:
-                listed["counts"] = counts_now
-                listed["readers"] = {
-                    topic: [bytes(e.endpoint_gid).hex()
-                            for e in acker.get_subscriptions_info_by_topic(topic)]
-                    for topic in sending}
-            return listed["readers"]
-
-        from rosgraph_msgs.msg import Clock
-        taken = {}
-        callbacks = []
-        # the latest stamp taken on the gate (a message without a header releases every
-        # held time), and the latest time a reading carried
-        gated = {"stamp": -1, "time": -1}
-        # per /clock subscription: [its held message, its own callback, the time it has]
-        holders = []
-
-        def stamp_ns(time_msg):
-            return time_msg.sec * 1_000_000_000 + time_msg.nanosec
-
-        def deliver(holder, msg):
-            if stamp_ns(msg.clock) > holder[2]:  # time only moves on
-                holder[2] = stamp_ns(msg.clock)
-                holder[1](msg)
-
-        def release():
-            for holder in holders:
-                held = holder[0]
-                if held is not None and gated["stamp"] >= stamp_ns(held.clock):
-                    holder[0] = None
-                    deliver(holder, held)
-                if gated["time"] > holder[2]:
-                    carried = Clock()
-                    carried.clock.sec, carried.clock.nanosec = divmod(gated["time"], 10**9)
-                    deliver(holder, carried)
-
-        for sub in self.node.subscriptions:
-            callbacks.append((sub, sub.callback))
-            if sub.topic_name == "/clock":
-                if gate is not None:
-                    holder = [None, sub.callback, -1]
-                    holders.append(holder)
-
-                    def holding(msg, _holder=holder):
-                        if stamp_ns(msg.clock) >= target:  # the end: never held
-                            _holder[0] = None
-                            deliver(_holder, msg)
-                        else:
-                            _holder[0] = msg
-                            release()
-
-                    sub.callback = holding
-                continue
-
-            def taking(*args, _sub=sub, _callback=sub.callback):
-                if _sub.topic_name == gate:  # taken, whatever its callback then does
-                    header = getattr(args[0], "header", None)
-                    gated["stamp"] = max(gated["stamp"], stamp_ns(header.stamp)
-                                         if header is not None else 1 << 62)
-                    if header is not None:
-                        gated["time"] = max(gated["time"], stamp_ns(header.stamp))
-                result = _callback(*args)
-                taken[_sub.topic_name] = taken.get(_sub.topic_name, 0) + 1
-                if _sub.topic_name == gate:
-                    release()
-                return result
-
-            sub.callback = taking
-        said = -1
-        # the node's callbacks as a lockstep runs them: passes, then rcl's wait on a kept
-        # wait set (rclpy's executor builds one per callback and wakes once more after it)
-        runner = Callbacks([self.node], self.executor)
-        Publisher.publish = counted
-        original_feedback = ServerGoalHandle.publish_feedback
-        ServerGoalHandle.publish_feedback = counted_feedback
-        target = int(round(until * 1e9))
-        last = -1
-        sent = 0.0
-        msg = String()
-        deadline = time.monotonic() + guard
-        try:
-            while ack.get_subscription_count() == 0 and time.monotonic() < deadline:
-                time.sleep(0.01)
-            while True:
-                now = self.node.get_clock().now().nanoseconds
-                if now > last:
-                    runner.round()  # every callback due now, and what they make ready
-                    last, sent = now, 0.0
-                    deadline = time.monotonic() + guard
-                if sum(taken.values()) != said:
-                    said, sent = sum(taken.values()), 0.0
-                if time.monotonic() - sent > 0.1:  # again, while the judge waits for it
-                    msg.data = json.dumps({
-                        "now": last, "published": counts, "feedback_at": feedback_at,
-                        "taken": taken, "readers": readers(fresh=sent > 0.0),
-                    })
-                    ack.publish(msg)
-                    sent = time.monotonic()
-                    if last >= target:
-                        self._answer({"timeout": False})
-                        return
-                if time.monotonic() > deadline:
-                    self._answer({"timeout": True})
-                    return
-                runner.spin(0.01)
-        except Exception:
-            # A callback of the node raised: say so at once, so that the judge stops
-            # waiting for what the node will no longer do; the error ends this call.
-            msg.data = json.dumps({"now": last, "published": counts, "raised": True})
-            ack.publish(msg)
-            raise
-        finally:
-            Publisher.publish = original
-            ServerGoalHandle.publish_feedback = original_feedback
-            for sub, callback in callbacks:
-                sub.callback = callback
-            self.ackers.append(acker)  # destroyed by stop(): the last ack must get out
-
-    def spin(self, seconds):
-        import time
-        end = time.monotonic() + seconds
-        while time.monotonic() < end:
-            self.executor.spin_once(timeout_sec=0.01)
-        self._answer(None)
-
-    def await_writers(self, topic, gids, guard):
-        """Wait until this participant has discovered every publisher ``gids`` on
-        ``topic`` (the node's subscription takes nothing from one it has not: what that
-        one sent before is lost, not late); whether it has, within ``guard`` seconds."""
-        import time
-        end = time.monotonic() + guard
-        while True:
-            known = {bytes(e.endpoint_gid).hex()
-                     for e in self.node.get_publishers_info_by_topic(topic)}
-            if set(gids) <= known or time.monotonic() > end:
-                break
-            time.sleep(0.01)
-        self._answer(set(gids) <= known)
-
-    def spin_until_length(self, attribute, length, guard):
-        import time
-        end = time.monotonic() + guard
-        while len(getattr(self.node, attribute, None) or ()) < length:
-            if time.monotonic() > end:
-                break
-            self.executor.spin_once(timeout_sec=0.01)
-        value = getattr(self.node, attribute, None)
-        self._answer(list(value) if isinstance(value, (list, tuple)) else repr(value))
-
-    def _plain(self, value):
-        """``value`` as JSON: numbers, strings and sequences of them; else its repr."""
-        if isinstance(value, (bool, int, float, str)) or value is None:
-            return {"type": type(value).__name__, "value": value}
-        if hasattr(value, "dtype") and getattr(value, "shape", None) == ():
-            return {"type": "float", "value": float(value)}
-        if isinstance(value, (list, tuple)) or hasattr(value, "tolist"):
-            items = list(value.tolist() if hasattr(value, "tolist") else value)
-            if all(isinstance(v, (bool, int, float)) for v in items):
-                return {"type": type(value).__name__, "value": [float(v) for v in items]}
-        if isinstance(value, (set, frozenset)) and all(isinstance(v, str) for v in value):
-            return {"type": type(value).__name__, "items": sorted(value)}
-        return {"type": type(value).__name__, "repr": repr(value)[:300]}
-
-    def value(self, name):
-        self._answer(self._plain(get_ipython().user_ns[name]))
-
-    def call_function(self, name, args):
-        self._answer(self._plain(get_ipython().user_ns[name](*args)))
-
-    def call_to_file(self, name, path):
-        """Pickle what the student's ``name()`` returns into ``path``, for a program the
-        judge starts as the student (the judge itself never unpickles it)."""
-        import pickle
-        value = get_ipython().user_ns[name]()
-        try:
-            with open(path, "wb") as f:
-                pickle.dump(value, f)
-        except Exception as exc:
-            self._answer({"type": type(value).__name__, "error": f"{type(exc).__name__}: {exc}"})
-            return
-        self._answer({"type": type(value).__name__, "error": None})
-
-    def stop(self):
-        if self.executor is not None:
-            self.executor.shutdown(timeout_sec=0)
-        if self.node is not None:
-            self.node.destroy_node()
-        for acker in self.ackers:
-            acker.destroy_node()
-        self.ackers = []
-        self.node = self.executor = None
-        self._answer(None)
-
-
-__rosbook_judge__ = _RosbookJudgeAgent()
-'''
+#: Run silently in the student's kernel before the first check: the agent
+#: (``rosbook.labs.agent``) that builds the student's node with the judge's parameters
+#: and spins it when asked, as ``__rosbook_judge__``. It runs as the student, so it may
+#: be changed or broken by the student's code: that can only make the judge see less,
+#: and seeing less never passes a check.
+LOAD_AGENT = "__rosbook_judge__ = __import__('rosbook.labs.agent', fromlist=['_']).JudgeAgent()"
 
 
 class KernelError(CheckFailed):
@@ -430,15 +175,6 @@ class Kernel:
         # thread kept making sockets for a kernel that was gone (zmq: too many open files)
         self.client.start_channels(hb=False)
         self.agent_ready = False
-        self.defined: set[str] = set()
-
-    def define(self, source: str) -> None:
-        """Run the judge's own ``source`` in the kernel once: more of the agent (a lab's
-        judge module adds the methods only its checks call)."""
-        if source not in self.defined:
-            self._agent()
-            self._reply(self.client.execute(source, silent=True, store_history=False), 60.0)
-            self.defined.add(source)
 
     def call(self, method: str, *args: Any, guard: float = KERNEL_REPLY_GUARD_S) -> Any:
         """Run ``__rosbook_judge__.method(*args)`` in the kernel; its JSON answer."""
@@ -457,7 +193,7 @@ class Kernel:
 
     def _agent(self) -> None:
         if not self.agent_ready:
-            self._reply(self.client.execute(AGENT, silent=True, store_history=False), 60.0)
+            self._reply(self.client.execute(LOAD_AGENT, silent=True, store_history=False), 60.0)
             self.agent_ready = True
 
     def answer(self, msg_id: str, guard: float = KERNEL_REPLY_GUARD_S) -> Any:

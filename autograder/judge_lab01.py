@@ -8,195 +8,43 @@ hidden tests' own; they never enter the kernel except as the arguments of the ca
 
 from __future__ import annotations
 
-import json
 import threading
 import time
 from collections.abc import Callable, Sequence
 from typing import Any
 
 from rcl_interfaces.srv import ListParameters
-from rclpy.context import Context
 from rclpy.node import Node
 from std_msgs.msg import Int64, String
 
 from autograder.judge import (
     EVENT_GUARD_S,
-    KERNEL_REPLY_GUARD_S,
     CheckFailed,
     Judgement,
     JudgeTimeout,
     clock_message,
     clock_publisher,
-    drain,
     own_domain,
     ros_node,
+)
+from autograder.lockstep import (
+    Listener,
+    await_discovered_by,
+    published_on_sim_time,
+    require_endpoint,
+    require_name,
+    wait_for,
 )
 from rosbook.labs.lab01 import RosoutLog, assert_hello_world, assert_logged, assert_times
 from rosbook.labs.probes import (
     ScriptRun,
     assert_clean_exit,
-    assert_endpoint,
     assert_sequence,
     assert_still_running,
     explain_silence,
     rclpy_raced,
 )
 from rosbook.runtime.session import ros, spin_node_until
-
-#: Wall-clock seconds after which an unanswered /clock step is published again.
-CLOCK_RETRY_S = 0.2
-
-
-def require_endpoint(info: dict[str, Any], topic: str, msg_type: type, kind: str) -> None:
-    """Fail fast, with the lab's message, when the node says it lacks the endpoint (what
-    it says only shortens a failure: a pass needs the traffic)."""
-    assert_endpoint(info["name"], info[kind + "s"], topic, msg_type, kind)
-
-
-def require_name(info: dict[str, Any], call: str, expected: str) -> None:
-    if info["name"] != expected:
-        raise CheckFailed(f"{call} made a node named {info['name']!r}, expected {expected!r}")
-
-
-def wait_for(
-    condition: Callable[[], bool], *nodes: Node, what: str, guard: float = EVENT_GUARD_S
-) -> None:
-    if not ros.spin_until(condition, *nodes, timeout=guard):
-        raise JudgeTimeout(f"{what} after {guard:.0f} s")
-
-
-class Listener:
-    """A subscription of the judge's own (in ``context``, default the session's);
-    ``data`` in arrival order."""
-
-    def __init__(
-        self, topic: str, msg_type: type, qos: Any = 10, context: Context | None = None
-    ) -> None:
-        # one name per context: rcl's /rosout publishers are the process's, by node name
-        name = "judge_listener_" + topic.strip("/") + ("" if context is None else "_own")
-        self.node = ros_node(name, context)
-        self.data: list[Any] = []
-        self.sub = self.node.create_subscription(
-            msg_type, topic, lambda m: self.data.append(m.data), qos
-        )
-
-    def drain(self) -> None:
-        """Take what has arrived, without waiting for more."""
-        drain(self.node)
-
-
-def published_on_sim_time(
-    j: Judgement, name: str, topic: str, msg_type: type, seconds: float, step: float = 0.05
-) -> tuple[list[Any], list[float]]:
-    """Run the kernel's node through ``seconds`` of the judge's ``/clock``, in lockstep:
-    after each time step the kernel says (on /rosbook_judge/clock_ack) that the node ran
-    its due callbacks and how many messages it published; the judge waits for them to
-    arrive before it publishes the next time. Returns (data, simulated arrival times).
-    The kernel's word only paces the judge: what is judged is what arrives."""
-    listener = Listener(topic, msg_type)
-    clock = clock_publisher(listener.node)
-    acked: list[dict[str, Any]] = [_ack("")]
-    acks = listener.node.create_subscription(
-        String, "/rosbook_judge/clock_ack", lambda m: acked.append(_ack(m.data)), 10
-    )
-    wait_for(
-        lambda: listener.sub.get_publisher_count() > 0 and clock.get_subscription_count() > 0,
-        listener.node,
-        what=f"node '{name}' and the judge did not connect on {topic} and /clock",
-    )
-    following = j.kernel.send("follow_clock", seconds, EVENT_GUARD_S)
-    wait_for(
-        lambda: acks.get_publisher_count() > 0,
-        listener.node,
-        what=f"node '{name}' did not start on /clock",
-    )
-    wait_until_discovered(acked, listener.node, topic, listener.node.get_name(), name)
-    times: list[float] = []
-    t = 0.0
-    while t < seconds - 1e-9:
-        t = min(t + step, seconds)
-        before = len(listener.data)
-        target = int(round(t * 1e9))
-        deadline = time.monotonic() + EVENT_GUARD_S
-        # a /clock message to a best-effort subscription can be lost: sent again until acked
-        while True:
-            clock.publish(clock_message(t))
-            if ros.spin_until(
-                lambda target=target: acked[-1]["now"] >= target,
-                listener.node,
-                timeout=CLOCK_RETRY_S,
-            ):
-                break
-            if time.monotonic() > deadline:
-                raise JudgeTimeout(f"node '{name}' did not follow /clock to t = {t:.2f} s")
-        sent = acked[-1]["published"].get(topic, 0)
-        ros.spin_until(
-            lambda sent=sent: len(listener.data) >= sent, listener.node, timeout=EVENT_GUARD_S
-        )
-        times += [t] * (len(listener.data) - before)
-    if j.kernel.answer(following)["timeout"]:
-        raise JudgeTimeout(f"node '{name}' stopped following /clock")
-    return listener.data, times
-
-
-def _ack(text: str) -> dict[str, Any]:
-    try:
-        ack = json.loads(text)
-        return {
-            "now": int(ack["now"]),
-            "published": dict(ack["published"]),
-            "feedback_at": [int(t) for t in ack.get("feedback_at", [])],
-            "taken": dict(ack.get("taken", {})),
-            "readers": {str(k): set(v) for k, v in dict(ack.get("readers", {})).items()},
-            "raised": bool(ack.get("raised", False)),
-        }
-    except (ValueError, KeyError, TypeError):
-        return {
-            "now": -1, "published": {}, "feedback_at": [], "taken": {}, "readers": {},
-            "raised": False,
-        }  # fmt: skip
-
-
-def wait_until_discovered(
-    acked: list[dict[str, Any]], node: Node, topic: str, reader: str, name: str
-) -> None:
-    """Wait until the kernel's node ``name`` says (in its acks) that it discovered every
-    subscription of the judge's node ``reader`` on ``topic``. Its publisher sends only to
-    the subscriptions it knows: what it sent before would be lost, not late. (The judge's
-    side matching says nothing of that: discovery runs on each side on its own.)"""
-
-    def discovered() -> bool:
-        mine = {
-            bytes(e.endpoint_gid).hex()
-            for e in node.get_subscriptions_info_by_topic(topic)
-            if e.node_name == reader
-        }
-        return bool(mine) and mine <= acked[-1]["readers"].get(topic, set())
-
-    wait_for(
-        discovered,
-        node,
-        what=f"node '{name}' did not discover the judge's subscription on {topic}",
-        guard=3 * EVENT_GUARD_S,
-    )
-
-
-def await_discovered_by(j: Judgement, sender: Node, topic: str, name: str) -> None:
-    """Wait until the kernel's node ``name`` has discovered every publisher of the judge's
-    node ``sender`` on ``topic``. Its subscription takes nothing from a publisher it does
-    not know: the first value sent before was lost, not late (seen: a right subscriber
-    of lab 1 missed the 7 of [7, -2, ...] on a busy machine). The judge's side matching
-    says nothing of that (discovery runs on each side on its own)."""
-    mine = [
-        bytes(e.endpoint_gid).hex()
-        for e in sender.get_publishers_info_by_topic(topic)
-        if e.node_name == sender.get_name()
-    ]
-    guard = 3 * EVENT_GUARD_S
-    if not j.kernel.call("await_writers", topic, mine, guard, guard=guard + KERNEL_REPLY_GUARD_S):
-        raise JudgeTimeout(
-            f"node '{name}' did not discover the judge's publisher on {topic} after {guard:.0f} s"
-        )
 
 
 def check_counter_publisher(j: Judgement) -> None:

@@ -29,98 +29,12 @@ from autograder.judge import (
     _python_value,
     ros_node,
 )
-from autograder.judge_lab01 import require_endpoint
+from autograder.lockstep import (
+    require_endpoint,
+)
 from rosbook.demos.qos import predict_processed
 from rosbook.labs import lab02 as qos_checks
 from rosbook.runtime.session import ros
-
-#: The agent's methods for lab 2 (see ``judge.AGENT``): the student's function given a
-#: node of the agent's (and a callback that keeps what it is called with), publishing
-#: through what it returned, and the compatibility function called on profiles rebuilt
-#: from their fields.
-AGENT_LAB02 = r"""
-def _judge_with_node(self, function, node_name, args, collect):
-    from rclpy.executors import SingleThreadedExecutor
-    from rclpy.node import Node
-    from rosbook import ros
-    self.stop()
-    ros.init()
-    ros.reset()
-    self.node = Node(node_name)
-    self.executor = SingleThreadedExecutor()
-    self.executor.add_node(self.node)
-    self.collected = []
-    self.made = get_ipython().user_ns[function](
-        self.node, *args, *([self.collected.append] if collect else []))
-    name, ns = self.node.get_name(), self.node.get_namespace()
-    depth = getattr(getattr(self.made, "qos_profile", None), "depth", None)
-    self._answer({
-        "type": type(self.made).__name__, "repr": repr(self.made)[:200], "name": name,
-        "publishers": self.node.get_publisher_names_and_types_by_node(name, ns),
-        "subscriptions": self.node.get_subscriber_names_and_types_by_node(name, ns),
-        "depth": depth if type(depth) is int else None,
-    })
-
-
-def _judge_publish_strings(self, texts):
-    from std_msgs.msg import String
-    for text in texts:
-        self.made.publish(String(data=text))
-    self._answer(None)
-
-
-def _judge_scans_until(self, count, guard):
-    import time
-    from sensor_msgs.msg import LaserScan
-    end = time.monotonic() + guard
-    while len(self.collected) < count and time.monotonic() < end:
-        self.executor.spin_once(timeout_sec=0.01)
-    self._answer([[type(m).__name__, list(m.ranges) if isinstance(m, LaserScan) else []]
-                  for m in self.collected])
-
-
-def _judge_scan_matched(self, guard):
-    # until the subscription met the judge's publisher from its side too (a best-effort
-    # message sent before that is lost)
-    import time
-    end = time.monotonic() + guard
-    while self.made.get_publisher_count() == 0 and time.monotonic() < end:
-        self.executor.spin_once(timeout_sec=0.01)
-    self._answer(self.made.get_publisher_count())
-
-
-def _judge_qos_pairs(self, function, pairs):
-    from rclpy.duration import Duration
-    from rclpy.qos import (DurabilityPolicy, HistoryPolicy, LivelinessPolicy, QoSProfile,
-                           ReliabilityPolicy)
-
-    def profile(f):
-        return QoSProfile(
-            history=HistoryPolicy(f["history"]), depth=f["depth"],
-            reliability=ReliabilityPolicy(f["reliability"]),
-            durability=DurabilityPolicy(f["durability"]),
-            deadline=Duration(nanoseconds=f["deadline"]),
-            lifespan=Duration(nanoseconds=f["lifespan"]),
-            liveliness=LivelinessPolicy(f["liveliness"]),
-            liveliness_lease_duration=Duration(nanoseconds=f["lease"]),
-            avoid_ros_namespace_conventions=f["avoid"])
-
-    answers = []
-    for pub, sub in pairs:
-        try:
-            answers.append(self._plain(get_ipython().user_ns[function](profile(pub), profile(sub))))
-        except Exception as exc:
-            answers.append({"raised": type(exc).__name__, "message": str(exc)[:300]})
-    self._answer(answers)
-
-
-_RosbookJudgeAgent.with_node = _judge_with_node
-_RosbookJudgeAgent.publish_strings = _judge_publish_strings
-_RosbookJudgeAgent.scans_until = _judge_scans_until
-_RosbookJudgeAgent.scan_matched = _judge_scan_matched
-_RosbookJudgeAgent.qos_pairs = _judge_qos_pairs
-"""
-
 
 #: Hang guard of a wait for a match across processes (or the event that says it never
 #: comes): generous, the wait ends as soon as either happens.
@@ -131,7 +45,6 @@ def with_node(
     j: Judgement, function: str, node_name: str, call: str, *, collect: bool = False
 ) -> dict[str, Any]:
     """``function(node, [callback])`` run in the kernel on a fresh node ``node_name``."""
-    j.kernel.define(AGENT_LAB02)
     try:
         return j.kernel.call("with_node", function, node_name, [], collect)  # type: ignore[no-any-return]
     except KernelError as exc:
@@ -280,7 +193,6 @@ def _answers(plain: Sequence[dict[str, Any]]) -> Iterator[Any]:
 
 def check_qos_incompatibilities(j: Judgement) -> None:
     pairs = incompatibility_pairs()
-    j.kernel.define(AGENT_LAB02)
     try:
         plain = j.kernel.call(
             "qos_pairs",

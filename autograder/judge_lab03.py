@@ -15,14 +15,11 @@ from __future__ import annotations
 
 import secrets
 import threading
-import time
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from typing import Any
 
-from rclpy.event_handler import SubscriptionEventCallbacks
-from rclpy.node import Node
-from std_msgs.msg import Int64, String
+from std_msgs.msg import Int64
 from std_srvs.srv import Trigger
 
 from autograder.judge import (
@@ -33,12 +30,13 @@ from autograder.judge import (
     JudgeTimeout,
     KernelError,
     Unreadable,
-    clock_message,
-    clock_publisher,
     ros_node,
 )
-from autograder.judge_lab01 import (
-    _ack,
+from autograder.lockstep import (
+    LOCKSTEP_GUARD_S,
+    RemoteClock,
+    RemoteNode,
+    remote_clock,
     require_endpoint,
     require_name,
     wait_for,
@@ -47,226 +45,8 @@ from autograder.judge_lab01 import (
 from rosbook.labs import lab03 as service_checks
 from rosbook.labs.probes import Probe, assert_sequence
 from rosbook.runtime.actions import GoalRun
-from rosbook.runtime.callbacks import Callbacks, WakingExecutor
 from rosbook.runtime.services import BackgroundServer, call
 from rosbook.runtime.session import ros
-
-#: Wall-clock seconds after which an unanswered /clock step is published again.
-CLOCK_RETRY_S = 0.2
-#: Hang guard of each lockstep wait (discovery of the judge's nodes, a step's ack, its
-#: messages' arrival): generous, a loaded machine takes seconds to discover a node.
-LOCKSTEP_GUARD_S = 3 * EVENT_GUARD_S
-
-#: The agent's methods for lab 3 (see ``judge.AGENT``).
-AGENT_LAB03 = r"""
-def _judge_services(self):
-    self._answer(self.node.get_service_names_and_types_by_node(
-        self.node.get_name(), self.node.get_namespace()))
-
-
-def _judge_call_trigger(self, function, service, timeout_s, deadline_s, server_up, discovery):
-    from rclpy.node import Node
-    from std_srvs.srv import Trigger
-    from rosbook import ros
-    from rosbook.runtime.services import run_with_deadline
-    self.stop()
-    ros.init()
-    self.node = node = Node("trigger_check_client")
-    if server_up:  # so that timeout_s is spent on the call, not on discovery
-        seen = node.create_client(Trigger, service)
-        found = seen.wait_for_service(timeout_sec=discovery)
-        node.destroy_client(seen)
-        if not found:
-            self._answer({"discovered": False})
-            return
-    student = get_ipython().user_ns[function]
-    outcome = run_with_deadline(lambda: student(node, service, timeout_s), deadline_s)
-    finished = outcome.finished
-    unblocked = not finished and ros.spin_until(lambda: outcome.finished, node, timeout=1.0)
-    value = outcome.value
-    shown = self._plain(value)
-    if hasattr(value, "get_fields_and_field_types"):
-        fields = {k: getattr(value, k) for k in value.get_fields_and_field_types()}
-        if all(isinstance(v, (bool, int, float, str)) for v in fields.values()):
-            shown["fields"] = fields
-    error = outcome.error
-    self._answer({
-        "discovered": True, "finished": finished, "unblocked": bool(unblocked),
-        "raised": None if error is None else [type(error).__name__, str(error)[:300]],
-        "value": shown, "seconds": outcome.seconds,
-    })
-
-
-_RosbookJudgeAgent.services = _judge_services
-_RosbookJudgeAgent.call_trigger = _judge_call_trigger
-"""
-
-#: Wall-clock guard of the agent's following /clock while the judge holds a time (it
-#: calls services and sets parameters meanwhile).
-HOLD_GUARD_S = 120.0
-
-
-class NodeRaised(Exception):
-    """The kernel said a callback of the followed node raised (``RemoteClock``)."""
-
-
-class RemoteClock:
-    """``/clock`` of the judge's, followed in lockstep by the student's node in the kernel
-    (``AGENT.follow_clock``), with the ``now`` / ``advance`` of a ``SimClock``.
-
-    After each step the kernel says its node ran the due callbacks and how many messages
-    it published (``published``: by topic, and action feedback under "feedback"); the
-    judge's ``arrived(published)`` must then hold before time moves on, so each message
-    is stamped with the time it was sent at. While the judge holds a time, the kernel
-    goes on spinning the node: its services, actions and parameters answer.
-    """
-
-    def __init__(self, j: Judgement, name: str, gate: str | None = None) -> None:
-        self.kernel, self.name, self.gate = j.kernel, name, gate
-        self.node = ros_node("judge_clock")
-        self.clock = clock_publisher(self.node)
-        self.acked: list[dict[str, Any]] = [_ack("")]
-        self.acks = self.node.create_subscription(
-            String,
-            "/rosbook_judge/clock_ack",
-            self._on_ack,
-            10,
-            event_callbacks=SubscriptionEventCallbacks(use_default_callbacks=False),
-        )
-        # the lockstep's waits on this node alone: rcl's wait on a kept wait set
-        self.callbacks = Callbacks([self.node], WakingExecutor())
-        self.arrived: Callable[[dict[str, int]], bool] = lambda published: True
-        self.t = 0.0
-        # the student's node's own subscription (the judge's nodes on sim time have theirs)
-        wait_for(
-            lambda: any(
-                e.node_name == name for e in self.node.get_subscriptions_info_by_topic("/clock")
-            ),
-            self.node,
-            what=f"node '{name}' does not listen to /clock",
-            guard=LOCKSTEP_GUARD_S,
-        )
-        self.following = self.kernel.send("follow_clock", FOREVER_S, HOLD_GUARD_S, gate)
-        try:
-            wait_for(
-                lambda: self.acks.get_publisher_count() > 0 and self.acked[-1]["now"] >= 0,
-                self.node,
-                what=f"node '{name}' did not start on /clock",
-                guard=LOCKSTEP_GUARD_S,
-            )
-        except NodeRaised:  # at its first time: the kernel's error (a KernelError) says why
-            self.kernel.answer(self.following, HOLD_GUARD_S)
-            raise
-
-    def _on_ack(self, msg: String) -> None:
-        self.acked.append(_ack(msg.data))
-        if self.acked[-1]["raised"]:
-            # Whatever spins the judge's nodes now (a service call, a wait) stops here:
-            # the node will not answer. ``finish`` then reads the error.
-            raise NodeRaised(f"a callback of node '{self.name}' raised")
-
-    @property
-    def now(self) -> float:
-        return self.t
-
-    def advance(
-        self, seconds: float, *nodes: Node, step: float = service_checks.SIM_STEP_S
-    ) -> None:
-        """Move ``/clock`` on by ``seconds``, in lockstep; the judge's ``nodes`` (default:
-        all of its own) spin meanwhile."""
-        end = self.t + seconds
-        while self.t < end - 1e-9:
-            self.t = min(self.t + step, end)
-            self._hold(self.t, nodes)
-
-    def wait_for(self, condition: Callable[[], bool], *, what: str, guard: float) -> None:
-        """Spin the clock's node until ``condition()`` (raises ``JudgeTimeout`` after
-        ``guard`` s, saying ``what`` did not happen)."""
-        if not self.callbacks.spin_until(condition, guard):
-            raise JudgeTimeout(f"{what} after {guard:.0f} s")
-
-    def _spin_until(
-        self, condition: Callable[[], bool], nodes: tuple[Node, ...], timeout: float
-    ) -> bool:
-        """Spin the judge's ``nodes`` (all of them if none) and the clock's node until
-        ``condition()``; whether it came true within ``timeout`` s."""
-        if nodes == (self.node,):
-            return self.callbacks.spin_until(condition, timeout)
-        watched = (*nodes, self.node) if nodes else ()
-        return ros.spin_until(condition, *watched, timeout=timeout)
-
-    def _hold(self, t: float, nodes: tuple[Node, ...]) -> None:
-        target = int(round(t * 1e9))
-        deadline = time.monotonic() + LOCKSTEP_GUARD_S
-        # With a gate the reading sent for time t carries it (the kernel's node takes it,
-        # then reads t): /clock only if no ack comes. A /clock message to a best-effort
-        # subscription can be lost: sent again until acked.
-        send = self.gate is None
-        while True:
-            if send:
-                self.clock.publish(clock_message(t))
-            send = True
-            if self._spin_until(lambda: self.acked[-1]["now"] >= target, nodes, CLOCK_RETRY_S):
-                break
-            if time.monotonic() > deadline:
-                waited = f" (nor took {self.gate} stamped then)" if self.gate else ""
-                raise JudgeTimeout(
-                    f"node '{self.name}' did not follow /clock to t = {t:g} s{waited}"
-                )
-        published = self.acked[-1]["published"]
-        if not self._spin_until(lambda: self.arrived(published), nodes, LOCKSTEP_GUARD_S):
-            raise JudgeTimeout(
-                f"what node '{self.name}' sent at t = {t:g} s ({published}) did not arrive"
-            )
-
-    def finish(self) -> None:
-        """Let the kernel's following end; a callback's exception there comes out as a
-        ``KernelError``."""
-        end = FOREVER_S
-        self.clock.publish(clock_message(end))
-        answered: list[Any] = []
-        stopper = threading.Event()
-
-        def keep_publishing() -> None:  # the last /clock can be lost too
-            while not stopper.wait(CLOCK_RETRY_S):
-                self.clock.publish(clock_message(end))
-
-        thread = threading.Thread(target=keep_publishing, daemon=True)
-        thread.start()
-        try:
-            answered.append(self.kernel.answer(self.following, HOLD_GUARD_S))
-        finally:
-            stopper.set()
-            thread.join()
-            self.callbacks.executor.shutdown(timeout_sec=0)
-            ros.remove(self.node)
-        if answered[0]["timeout"]:
-            raise JudgeTimeout(f"node '{self.name}' stopped following /clock")
-
-
-#: The time the judge's clock ends at: after every time a check holds.
-FOREVER_S = 1e6
-
-
-@contextmanager
-def remote_clock(j: Judgement, name: str, gate: str | None = None) -> Iterator[RemoteClock]:
-    """A ``RemoteClock`` for node ``name`` for the time of the block (with ``gate``, a
-    time moves on in the kernel once the node took a message on that topic stamped with
-    it: ``AGENT.follow_clock``). The kernel's following always ends with it; an exception
-    the node's callbacks raised there comes out as a ``KernelError``, which wins over what
-    the judge saw of it (it says why)."""
-    clock = RemoteClock(j, name, gate)
-    try:
-        yield clock
-    except BaseException:
-        try:
-            clock.finish()
-        except KernelError:
-            raise
-        except Exception:  # noqa: S110 - what the block raised says more
-            pass
-        raise
-    clock.finish()
 
 
 def _raised_in_kernel(exc: KernelError, name: str) -> str:
@@ -299,7 +79,6 @@ def check_clock_server(j: Judgement) -> None:
         ros.reset()
         info = j.start_node("ClockServer", sim_time=True, **kwargs)
         require_name(info, _made("ClockServer", kwargs), name)
-        j.kernel.define(AGENT_LAB03)
         own = j.kernel.call("services")
         service_checks.assert_service_in(name, "/" + name, own, "what_time", Trigger)
         with kernel_errors_explained(name), remote_clock(j, name) as clock:
@@ -314,19 +93,6 @@ def check_clock_server(j: Judgement) -> None:
                 finally:
                     ros.remove(asker)
                 service_checks.assert_told_time(response, at)
-
-
-class RemoteNode:
-    """The name of a node in the kernel, for checks that reach it from outside."""
-
-    def __init__(self, name: str) -> None:
-        self.name = name
-
-    def get_name(self) -> str:
-        return self.name
-
-    def get_fully_qualified_name(self) -> str:
-        return "/" + self.name
 
 
 def _goal(clock: RemoteClock, order: int, cancel_after: int | None = None) -> GoalRun:
@@ -410,7 +176,6 @@ def trigger_call(
 ) -> tuple[Any, float]:
     """The student's ``call_trigger(node, service, timeout_s)``, run by the agent on a
     node of its own: (the value it returned, seconds it took)."""
-    j.kernel.define(AGENT_LAB03)
     try:
         got = j.kernel.call(
             "call_trigger",

@@ -30,14 +30,16 @@ from geometry_msgs.msg import Twist
 from nav_msgs.msg import Odometry
 
 from autograder.judge import CheckFailed, Judgement, JudgeTimeout, KernelError
-from autograder.judge_lab01 import (
+from autograder.lockstep import (
+    LOCKSTEP_GUARD_S,
+    RemoteNode,
     await_discovered_by,
+    remote_clock,
     require_endpoint,
     require_name,
     wait_for,
     wait_until_discovered,
 )
-from autograder.judge_lab03 import LOCKSTEP_GUARD_S, RemoteNode, remote_clock
 from rosbook.labs import lab05 as drive_checks
 from rosbook.runtime.session import ros
 from rosbook.sim.node import DiffDriveSimNode

@@ -54,16 +54,15 @@ from autograder.judge import (
     clock_publisher,
     ros_node,
 )
-from autograder.judge_lab01 import CLOCK_RETRY_S
+from autograder.lockstep import (
+    CLOCK_RETRY_S,
+)
 from rosbook.labs import lab06
 from rosbook.labs.probes import Probe, ScriptRun, run_program
 from rosbook.launch.launcher import ESCALATED
 from rosbook.runtime.session import ros
 
 #: What the hidden checks expect (the lab's contract).
-EXECUTABLES = {"talker": "robot_talk.talker:main", "listener": "robot_talk.listener:main"}
-DEPENDENCIES = ["rclpy", "std_msgs"]
-INSTALLED = "launch/talk.launch.py"
 RATES = {"robot1": 2.0, "robot2": 5.0}
 #: The judge keeps one participant from its first check to its end (``judge.
 #: holds_participant``): its watchers and probes come and go while the student's nodes
@@ -201,9 +200,9 @@ def text_value(j: Judgement, name: str) -> str:
 def check_package_manifest(j: Judgement) -> None:
     package_xml, setup_py = text_value(j, "PACKAGE_XML"), text_value(j, "SETUP_PY")
     expected = {
-        "expected_executables": EXECUTABLES,
-        "dependencies": DEPENDENCIES,
-        "installed": INSTALLED,
+        "expected_executables": lab06.EXECUTABLES,
+        "dependencies": list(lab06.DEPENDENCIES),
+        "installed": f"launch/{lab06.LAUNCH_FILE}",
     }
     with scratch_folder(j) as folder:
         request = {"package_xml": package_xml, "setup_py": setup_py, "expected": expected}

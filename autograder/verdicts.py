@@ -1,8 +1,10 @@
 """The grader's side of the judge: ask for verdicts while nbgrader runs, score with them.
 
-``JudgedExecute`` is nbgrader's ``Execute`` preprocessor that, just before each judged
-test cell runs in the student's kernel, asks the judge process (``autograder.judge``)
-for its verdict on that cell, with the kernel in the state the student's cells left it.
+``JudgedExecute`` is nbgrader's ``Execute`` preprocessor that, just before each test
+cell runs in the student's kernel, asks the judge process (``autograder.judge``) for
+its verdict on that cell, with the kernel in the state the student's cells left it.
+The kernel gets the cell without its hidden tests: their source never enters it. A
+test cell the judge has no check for scores nothing (never its run in the kernel).
 The cell then runs in the kernel deferred (``rosbook.labs.deferral``; unless the feedback
 keeps figures its checks show, ``shows_figures``, and the judge did not show them of its
 own runs): its checks raise ``CheckDeferred`` at once instead of running a second time,
@@ -15,6 +17,7 @@ and names the cells whose output claimed a pass the judge did not give.
 
 from __future__ import annotations
 
+import copy
 import json
 import re
 import subprocess
@@ -29,11 +32,11 @@ import nbformat
 from nbformat import NotebookNode
 from nbformat.v4 import new_output
 from nbgrader.api import Gradebook
-from nbgrader.preprocessors import Execute
+from nbgrader.preprocessors import ClearHiddenTests, Execute
 
 from autograder import sandbox
 from autograder.feedback import is_test_cell
-from autograder.judge import Verdict, judged_checks
+from autograder.judge import Verdict, judged_checks, missing_check
 from autograder.kernels import CappedExecute, not_run_output
 
 #: Wall-clock guard on one verdict (a hang guard: hitting it is a "timeout").
@@ -142,48 +145,77 @@ def judging(assignment_id: str) -> Iterator[Judging]:
 
 class JudgedExecute(CappedExecute):  # type: ignore[misc]
     """nbgrader's Execute (output capped, as for every kernel), with the judge's verdict
-    taken before each judged test cell."""
+    taken before each test cell. The kernel gets a test cell without its hidden tests
+    (``sent_to_kernel``); a test cell the judge has no check for is never scored by
+    its run in the kernel: its verdict says so, and it scores nothing."""
 
     def preprocess_cell(
         self, cell: NotebookNode, resources: dict[str, Any], index: int
     ) -> tuple[NotebookNode, dict[str, Any]]:
+        if _current is None or not is_test_cell(cell):
+            return super().preprocess_cell(cell, resources, index)  # type: ignore[no-any-return]
         grade_id = cell.get("metadata", {}).get("nbgrader", {}).get("grade_id")
-        if _current is not None and is_test_cell(cell) and grade_id in _current.checks:
+        sent = sent_to_kernel(cell)
+        if grade_id not in _current.checks:
+            why = missing_check(_current.assignment_id, grade_id)
+            verdict = Verdict(grade_id, False, f"not graded: {why}", broken=True)
+        elif self.busy_with is not None:  # the judge would wait on the kernel for nothing
+            verdict = Verdict(
+                grade_id,
+                False,
+                f"timeout: {not_run_output(self.busy_with, self.timeout).evalue}",
+                timeout=True,
+            )
+        else:
             self.make_room(resources, index)  # the judge runs programs in the sandbox
             # A sandbox's folder is seen through /proc/<pid>/root: never resolved (that
             # link would lead to the host's own root).
             folder = getattr(self.km, "sandbox_folder", None) or str(
                 Path(resources.get("metadata", {}).get("path", ".")).resolve()
             )
-            if self.busy_with is not None:  # the judge would wait on the kernel for nothing
-                verdict = Verdict(
-                    grade_id,
-                    False,
-                    f"timeout: {not_run_output(self.busy_with, self.timeout).evalue}",
-                    timeout=True,
-                )
-            else:
-                verdict = _current.verdict(
-                    grade_id,
-                    self.km.connection_file,
-                    folder,
-                    getattr(self.km, "sandbox_pid", None),
-                    self.timeout,
-                )
-            _current.verdicts[grade_id] = verdict
-            shown = [nbformat.from_dict(output) for output in verdict.outputs]
-            # a check that timed out in the judge would only time out again in the kernel
-            if self.busy_with is None and (
-                shown or verdict.timeout or not shows_figures(cell.source)
-            ):
-                defer_next_cell(self.kc)
-            cell, resources = super().preprocess_cell(cell, resources, index)
+            verdict = _current.verdict(
+                grade_id,
+                self.km.connection_file,
+                folder,
+                getattr(self.km, "sandbox_pid", None),
+                self.timeout,
+            )
+        _current.verdicts[grade_id] = verdict
+        shown = [nbformat.from_dict(output) for output in verdict.outputs]
+        # a check that timed out in the judge would only time out again in the kernel
+        if (
+            grade_id in _current.checks
+            and self.busy_with is None
+            and sent.source.strip()
+            and (shown or verdict.timeout or not shows_figures(sent.source))
+        ):
+            defer_next_cell(self.kc)
+        sent, resources = super().preprocess_cell(sent, resources, index)
+        ran = sent.get("outputs", [])
+        if grade_id in _current.checks and sent.source.strip():
             outputs = []
-            for output in cell.outputs:
+            for output in ran:
                 outputs += [*shown, verdict_output(verdict)] if is_deferral(output) else [output]
-            cell.outputs = outputs
-            return cell, resources
-        return super().preprocess_cell(cell, resources, index)  # type: ignore[no-any-return]
+        else:  # nothing of it ran in the kernel, or nothing there is scored: the verdict
+            outputs = [*ran, *shown, verdict_output(verdict)]
+        cell.outputs, cell.execution_count = outputs, sent.get("execution_count")
+        # nbclient put the copy it ran in the notebook: the graded notebook keeps the
+        # instructor's cell (hidden tests and all) for nbgrader and the gradebook
+        self.nb.cells[index] = cell
+        return cell, resources
+
+
+def sent_to_kernel(cell: NotebookNode) -> NotebookNode:
+    """A copy of test cell ``cell`` as the student's kernel gets it: its hidden tests
+    removed as nbgrader removes them from the release (``ClearHiddenTests``), so no
+    hidden test's source reaches the kernel (its history, its hooks, its outputs).
+    A cell whose hidden region is malformed is not sent at all (empty source)."""
+    sent = copy.deepcopy(cell)
+    try:
+        ClearHiddenTests(enforce_metadata=False).preprocess_cell(sent, {}, 0)
+    except RuntimeError:  # a hidden region without its end: nothing of it goes out
+        sent.source = ""
+    return sent
 
 
 def shows_figures(source: str) -> bool:
@@ -241,14 +273,16 @@ class Judged:
 def apply_verdicts(
     gradebook: Path, assignment_id: str, student_id: str, notebook: str, run: Judging
 ) -> Judged:
-    """Make the judge's verdicts the scores of the judged cells; a judged cell with no
-    verdict (never reached, judge failed) scores nothing."""
+    """Make the judge's verdicts the scores of the test cells; a test cell with no
+    verdict (never reached, judge failed, no check in the judge) scores nothing: its run
+    in the student's kernel never scores."""
     judged = Judged()
     with Gradebook(f"sqlite:///{gradebook}") as gb:
         sub = gb.find_submission_notebook(notebook, assignment_id, student_id)
         for grade in sub.grades:
-            if grade.name not in run.checks:
-                continue
+            if grade.name not in run.verdicts and grade.name not in run.checks:
+                if grade.auto_score is None:  # not a test cell: graded by hand
+                    continue
             verdict = run.verdicts.get(grade.name)
             passed = verdict is not None and verdict.passed
             grade.manual_score = grade.max_score if passed else 0.0

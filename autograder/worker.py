@@ -76,24 +76,6 @@ def locked_cell_changes(
     return changed
 
 
-def drop_duplicate_grade_ids(notebook: nbformat.NotebookNode) -> bool:
-    """A copied cell (JupyterLab's copy keeps nbgrader's metadata) becomes a plain cell.
-
-    nbgrader refuses a notebook in which two cells share a grade_id; the copy still runs
-    in its place, so a class defined again in it is the one the checks see. Whether
-    any cell was changed."""
-    seen: set[str] = set()
-    changed = False
-    for cell in notebook.cells:
-        grade_id = cell.get("metadata", {}).get("nbgrader", {}).get("grade_id")
-        if grade_id in seen:
-            del cell.metadata["nbgrader"]
-            changed = True
-        elif grade_id:
-            seen.add(grade_id)
-    return changed
-
-
 def timed_out_cells(notebook: nbformat.NotebookNode, ename: str = "CellTimeoutError") -> list[str]:
     """Cells nbgrader interrupted because they ran past the per-cell limit (with
     ``ename=kernels.NOT_RUN``: the cells not run after one kept the kernel busy)."""
@@ -154,7 +136,8 @@ def deduplicate_grade_ids(notebook: nbformat.NotebookNode) -> list[str]:
 
     JupyterLab's copy and paste keeps a cell's metadata, so honest work can hold two
     cells with one grade_id, which nbgrader refuses (the whole notebook scores 0).
-    Every copy still runs, in order, as a plain cell. Returns the grade_ids copied.
+    Every copy still runs, in order, as a plain cell (a class defined again in it is
+    the one the checks see). Returns the grade_ids copied.
     """
     seen, copied = set(), []
     for cell in notebook.cells:
@@ -190,14 +173,11 @@ def grade(job: Job) -> Result:
     shutil.copytree(job.submission_dir, submitted_dir, symlinks=True)
     shutil.copy(template / "gradebook.db", scratch / "gradebook.db")
     notebook_path = submitted_dir / job.notebook
-    prepared = nbformat.read(notebook_path, as_version=4)
-    if deduplicate_grade_ids(prepared):
-        nbformat.write(prepared, notebook_path)
+    submitted = nbformat.read(notebook_path, as_version=4)
+    if deduplicate_grade_ids(submitted):
+        nbformat.write(submitted, notebook_path)
 
     released = nbformat.read(template / "release" / job.assignment_id / job.notebook, as_version=4)
-    submitted = nbformat.read(notebook_path, as_version=4)
-    if drop_duplicate_grade_ids(submitted):
-        nbformat.write(submitted, notebook_path)
     tampered = locked_cell_changes(submitted, released)
     meddling = grading_code_changes(submitted, released)
 

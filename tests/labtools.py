@@ -8,14 +8,17 @@ too), "wrong" replaces some answers, and so on.
 
 from __future__ import annotations
 
+import base64
 import copy
 import csv
+import os
 import re
 import shutil
 from pathlib import Path
 
 import nbformat
 
+from autograder.config import LABS, SOLUTIONS
 from autograder.course import (  # noqa: F401 (the tests import them from here too)
     answered,
     grade_id,
@@ -42,6 +45,52 @@ def with_cell(notebook: nbformat.NotebookNode, gid: str, source: str) -> nbforma
             cell.source = source
             return notebook
     raise KeyError(gid)
+
+
+def extra_cell(notebook: nbformat.NotebookNode, source: str, at: int = 2) -> nbformat.NotebookNode:
+    """A student's own cell inserted at ``at`` (default: right after the set-up cell)."""
+    notebook.cells.insert(at, nbformat.v4.new_code_cell(source))
+    return notebook
+
+
+#: A student's cell that prints the source of every later cell the kernel runs, as the
+#: kernel gets it: before it runs and after (IPython's ``pre_run_cell`` and
+#: ``post_run_cell`` events).
+SOURCE_PRINTER = (
+    "ip = get_ipython()\n"
+    "ip.events.register('pre_run_cell', lambda info: print('PRE-RUN:', info.raw_cell))\n"
+    "ip.events.register('post_run_cell', lambda result: print('POST-RUN:', result.info.raw_cell))"
+)
+#: A student's last cell: everything the kernel ran, from IPython's input history.
+HISTORY_PRINTER = "print('HISTORY:', *In, *_ih, sep='\\n')"
+
+
+def output_text(notebook: nbformat.NotebookNode) -> str:
+    """Every text a notebook's cells show: streams, errors, and text/plain or HTML data."""
+    texts = []
+    for cell in notebook.cells:
+        for output in cell.get("outputs", []):
+            texts += [output.get("text", ""), output.get("evalue", "")]
+            texts += output.get("traceback", [])
+            data = output.get("data", {})
+            texts += [data.get("text/plain", ""), data.get("text/html", "")]
+    return "\n".join(t if isinstance(t, str) else "".join(t) for t in texts)
+
+
+def hidden_only_lines(lab: str, solutions: Path = SOLUTIONS, labs: Path = LABS) -> list[str]:
+    """The lines of ``lab``'s hidden tests (source notebook) that appear nowhere in its
+    release: where one shows in a graded submission, a hidden test's source leaked."""
+    source = nbformat.read(solutions / lab / f"{lab}.ipynb", as_version=4)
+    released = nbformat.read(labs / lab / f"{lab}.ipynb", as_version=4)
+    visible = {ln.strip() for c in released.cells for ln in c.source.splitlines()}
+    hidden, inside = [], False
+    for cell in source.cells:
+        for line in cell.source.splitlines():
+            if "BEGIN HIDDEN TESTS" in line or "END HIDDEN TESTS" in line:
+                inside = "BEGIN" in line
+            elif inside and line.strip() and line.strip() not in visible:
+                hidden.append(line.strip())
+    return hidden
 
 
 def submit(
@@ -102,6 +151,12 @@ def feedback(out: Path, student: str, lab: str) -> str:
     return (out / "feedback" / student / lab / f"{lab}.html").read_text()
 
 
+def live_marked_processes() -> list[int]:
+    """Processes started by a grading job of this test process that are still alive
+    (the grader reserves domains in this, the test, process)."""
+    return marked_processes(os.getpid())
+
+
 def marked_processes(pid: int) -> list[int]:
     """Live processes started under a ROS domain that the process ``pid`` reserved.
 
@@ -118,3 +173,64 @@ def marked_processes(pid: int) -> list[int]:
         if any(item.startswith(prefix) and needle in item for item in env):
             found.append(int(proc.name))
     return found
+
+
+#: Replaces every check in the module ``_m`` (except building the node) by a mock
+#: that accepts anything: the test cells then pass in the kernel whatever the code does.
+NEUTER = """
+from unittest import mock as _mock
+for _name in list(vars(_m)):
+    if not _name.startswith('_') and _name != 'make_node' and callable(getattr(_m, _name)):
+        setattr(_m, _name, _mock.MagicMock())
+"""
+
+ATTACKS = {
+    # The kernel runs every later cell, hidden tests included, as `pass`.
+    "input_transformer": "get_ipython().input_transformers_post.append(lambda lines: ['pass\\n'])",
+    # Test cells (they call checks.) become SystemExit, every other cell runs.
+    "system_exit": (
+        "get_ipython().input_transformers_post.append(\n"
+        "    lambda lines: ['raise SystemExit(0)\\n'] if 'checks.' in ''.join(lines) else lines)"
+    ),
+    # Before every cell, the checks are replaced again.
+    "pre_run_cell_hook": (
+        "def _hook(info):\n    import rosbook.labs.lab01 as _m\n"
+        + "\n".join("    " + ln for ln in NEUTER.strip().splitlines())
+        + "\nget_ipython().events.register('pre_run_cell', _hook)"
+    ),
+    # Errors are neither shown nor reported: the cell looks like it passed.
+    "post_run_cell_hook": (
+        "ip = get_ipython()\nip.showtraceback = lambda *a, **k: None\n"
+        "def _clear(result):\n    result.error_in_exec = None\n"
+        "ip.events.register('post_run_cell', _clear)"
+    ),
+    # Cells that call the checks are run as `pass`.
+    "run_cell_replaced": (
+        "ip = get_ipython()\n_run, _run_async = ip.run_cell, ip.run_cell_async\n"
+        "def _skip(cell):\n    return 'pass' if 'checks.' in cell else cell\n"
+        "ip.run_cell = lambda raw_cell, *a, **k: _run(_skip(raw_cell), *a, **k)\n"
+        "ip.run_cell_async = lambda raw_cell, *a, **k: _run_async(_skip(raw_cell), *a, **k)"
+    ),
+    "importlib": "import importlib\n_m = importlib.import_module('rosbook.labs.lab01')" + NEUTER,
+    "alias": "import rosbook.labs.lab01 as _m" + NEUTER,
+    "sys_modules": "import sys\n_m = sys.modules['rosbook.labs.lab01']" + NEUTER,
+    "gc": (
+        "import gc\n_m = next(o for o in gc.get_objects()\n"
+        "          if type(o).__name__ == 'module' and o.__name__ == 'rosbook.labs.lab01')" + NEUTER
+    ),
+    "exec_base64": (
+        "import base64\nexec(base64.b64decode("
+        + repr(base64.b64encode(("import rosbook.labs.lab01 as _m" + NEUTER).encode()).decode())
+        + "))"
+    ),
+    # `checks` is looked up in the builtins once the notebook's own name is gone.
+    "builtins_override": (
+        "import builtins, types\n_m = types.SimpleNamespace(**vars(checks))"
+        + NEUTER
+        + "builtins.checks = _m\ndel checks"
+    ),
+    # A test cell's output that says "pass", and no error output at all.
+    "fake_pass_printed": (
+        "ip = get_ipython()\nip.showtraceback = lambda *a, **k: print('PASS: all checks passed')"
+    ),
+}

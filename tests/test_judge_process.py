@@ -44,8 +44,8 @@ def test_the_judge_starts_with_the_submission_before_any_cell() -> None:
 
 
 def test_an_assignment_without_judged_checks_starts_no_judge() -> None:
-    """Every lab of the course is judged; an assignment an instructor adds without a
-    judge module (its test cells score in the kernel, as nbgrader's do) costs none."""
+    """Every lab of the course is judged; an assignment without a judge module (``make
+    labs`` refuses it, and graded, its test cells score nothing) starts no judge."""
     assert judge.judged_checks("lab99_new") == {}
     with judging("lab99_new") as run:
         assert run.process is None
@@ -101,7 +101,7 @@ def test_closing_a_kernel_sends_it_nothing(tmp_path: Path) -> None:
 
 class Following:
     """The kernel's node following a ``/clock`` of the test's own node ``name``
-    (``AGENT.follow_clock`` up to ``until``), once it has said its first ack; ``acked``
+    (``JudgeAgent.follow_clock`` up to ``until``), once it has said its first ack; ``acked``
     holds its acks as the judge reads them."""
 
     def __init__(
@@ -114,13 +114,14 @@ class Following:
     ) -> None:
         from std_msgs.msg import String
 
-        from autograder.judge_lab01 import _ack
+        from autograder.lockstep import read_ack
+        from rosbook.labs.agent import ACK_TOPIC
 
         self.session, self.kernel, self.until = session, kernel, until
         self.node = judge.ros_node(name)
-        self.acked = [_ack("")]
+        self.acked = [read_ack("")]
         self.node.create_subscription(
-            String, "/rosbook_judge/clock_ack", lambda m: self.acked.append(_ack(m.data)), 10
+            String, ACK_TOPIC, lambda m: self.acked.append(read_ack(m.data)), 10
         )
         self.following = kernel.send("follow_clock", until, 60.0, gate)
         assert session.spin_until(lambda: self.acked[-1]["now"] >= 0, self.node, timeout=60)
@@ -153,7 +154,7 @@ def test_a_kernel_says_which_subscriptions_its_node_can_send_to(session: Session
     to be among them before time moves."""
     from std_msgs.msg import Int64
 
-    from autograder.judge_lab01 import wait_until_discovered
+    from autograder.lockstep import wait_until_discovered
 
     talker = (
         "from rclpy.node import Node\n"
@@ -186,7 +187,7 @@ def test_a_kernel_says_when_it_has_discovered_the_judges_publisher(
     publisher that does not exist, and for the judge's once discovery found it."""
     from std_msgs.msg import Int64
 
-    from autograder.judge_lab01 import await_discovered_by
+    from autograder.lockstep import await_discovered_by
 
     with judged_kernel(QUEUED_SUBSCRIBER + IN_ORDER) as kernel:
         assert kernel.call("start", "CounterSubscriber", {}, False)["name"] == "counter_subscriber"
@@ -514,14 +515,14 @@ def test_a_call_whose_limit_passed_is_a_timeout_not_wrong(
     """A check's call that got no answer within its limit (here no server at all, with
     the limit cut to 0.5 s) is a verdict of "timeout" (a hang guard), not of wrong code;
     a call that failed otherwise still fails the check."""
-    from autograder import judge_lab03
+    from autograder import judge_lab03, lockstep
     from rosbook.labs import lab03
     from rosbook.runtime.params import ParameterError
 
     monkeypatch.setattr(lab03, "DISCOVERY_S", 0.5)
 
     def unanswered(j: judge.Judgement) -> None:
-        lab03.set_from_outside(judge_lab03.RemoteNode("nobody_here"), "rate_hz", 5.0)
+        lab03.set_from_outside(lockstep.RemoteNode("nobody_here"), "rate_hz", 5.0)
 
     monkeypatch.setitem(judge_lab03.CHECKS, "test_rate_parameter", unanswered)
     with judged_kernel("") as kernel:
@@ -615,3 +616,18 @@ def test_lab6s_judge_keeps_one_participant_while_the_students_nodes_come_and_go(
         assert keepers[1] is first, "a participant was made again"
     finally:
         session.hold_participant(False)
+
+
+def test_a_judge_failure_passes_through_the_labs_checks_as_it_was_said() -> None:
+    """One ``CheckFailed`` for the labs' checks and the judge: a check that calls the
+    student's function through the judge lets the judge's own failure (the kernel gave
+    no answer) through as it said it, not as the student's function raising."""
+    from rosbook.labs import lab02, probes
+
+    assert judge.CheckFailed is probes.CheckFailed
+
+    def predict(*args: Any) -> list[int]:
+        raise judge.KernelError("the kernel gave no answer to the judge")
+
+    with pytest.raises(judge.KernelError, match="^the kernel gave no answer to the judge$"):
+        lab02.assert_model_matches(predict, [(2, 1.7, 3, 6)])

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import os
 import shutil
 import signal
 import subprocess
@@ -15,9 +14,10 @@ import pytest
 from autograder.check import check, report
 from tests.labtools import (
     answered,
+    extra_cell,
     feedback,
     grade,
-    marked_processes,
+    live_marked_processes,
     notebook_path,
     replace_in_answer,
     submit,
@@ -48,18 +48,6 @@ def wrong() -> nbformat.NotebookNode:
     )
     fixes.update(talker)
     return answered(LAB, **fixes)
-
-
-def extra_cell(notebook: nbformat.NotebookNode, source: str) -> nbformat.NotebookNode:
-    """A student's own cell, added right after the set-up cell."""
-    notebook.cells.insert(2, nbformat.v4.new_code_cell(source))
-    return notebook
-
-
-def live_marked_processes() -> list[int]:
-    """Processes started by a grading job of this test process that are still alive
-    (the grader reserves domains in this, the test, process)."""
-    return marked_processes(os.getpid())
 
 
 @pytest.fixture(scope="module")

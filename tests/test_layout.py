@@ -1,22 +1,20 @@
-"""The earlier flat module names still import for this term, as the modules they became."""
+"""The package's layout: the layered modules, and the names packages still give."""
 
 from __future__ import annotations
 
 import importlib
-import sys
 
 import pytest
 
-import rosbook
 from rosbook.labs import lab01, probes
 
 
-@pytest.mark.parametrize("old", sorted(rosbook.OLD_NAMES))
-def test_an_earlier_module_name_imports_the_module_it_became(old: str) -> None:
-    sys.modules.pop(f"rosbook.{old}", None)
-    with pytest.warns(DeprecationWarning, match=f"rosbook.{old} is now"):
-        module = importlib.import_module(f"rosbook.{old}")
-    assert module is importlib.import_module(rosbook.OLD_NAMES[old])
+@pytest.mark.parametrize("old", ["checks", "session", "sim_node", "qos_checks"])
+def test_the_flat_module_names_of_an_earlier_term_are_gone(old: str) -> None:
+    """``rosbook.checks`` & co. were the names of an earlier term; only the layered
+    modules import now (``rosbook.labs.lab01``, ``rosbook.runtime.session``, ...)."""
+    with pytest.raises(ModuleNotFoundError):
+        importlib.import_module(f"rosbook.{old}")
 
 
 def test_lab_one_checks_reach_the_shared_probes_too() -> None:

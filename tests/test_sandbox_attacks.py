@@ -17,8 +17,16 @@ import nbformat
 import pytest
 
 from autograder.config import ROOT, SOLUTIONS
-from tests.labtools import answered, feedback, grade, notebook_path, submit
-from tests.test_lab01 import LAB, extra_cell, live_marked_processes, wrong
+from tests.labtools import (
+    answered,
+    extra_cell,
+    feedback,
+    grade,
+    live_marked_processes,
+    notebook_path,
+    submit,
+)
+from tests.test_lab01 import LAB, wrong
 
 pytestmark = pytest.mark.slow
 

@@ -11,7 +11,6 @@ worker grades them meanwhile).
 
 from __future__ import annotations
 
-import base64
 import csv
 import html
 import shutil
@@ -23,71 +22,24 @@ import nbformat
 import pytest
 
 from autograder.config import ROOT
-from tests.labtools import answered, feedback, grade_id, replace_in_answer, submit
-from tests.test_lab01 import LAB, extra_cell, wrong
+from tests.labtools import (
+    ATTACKS,
+    HISTORY_PRINTER,
+    NEUTER,
+    SOURCE_PRINTER,
+    answered,
+    extra_cell,
+    feedback,
+    grade_id,
+    hidden_only_lines,
+    output_text,
+    replace_in_answer,
+    submit,
+)
+from tests.test_lab01 import LAB, wrong
 
 #: Each case grades attack notebooks with the documented command: out of `make test-fast`.
 pytestmark = pytest.mark.slow
-
-#: Replaces every check in the module ``_m`` (except building the node) by a mock
-#: that accepts anything: the test cells then pass in the kernel whatever the code does.
-NEUTER = """
-from unittest import mock as _mock
-for _name in list(vars(_m)):
-    if not _name.startswith('_') and _name != 'make_node' and callable(getattr(_m, _name)):
-        setattr(_m, _name, _mock.MagicMock())
-"""
-
-ATTACKS = {
-    # The kernel runs every later cell, hidden tests included, as `pass`.
-    "input_transformer": "get_ipython().input_transformers_post.append(lambda lines: ['pass\\n'])",
-    # Test cells (they call checks.) become SystemExit, every other cell runs.
-    "system_exit": (
-        "get_ipython().input_transformers_post.append(\n"
-        "    lambda lines: ['raise SystemExit(0)\\n'] if 'checks.' in ''.join(lines) else lines)"
-    ),
-    # Before every cell, the checks are replaced again.
-    "pre_run_cell_hook": (
-        "def _hook(info):\n    import rosbook.labs.lab01 as _m\n"
-        + "\n".join("    " + ln for ln in NEUTER.strip().splitlines())
-        + "\nget_ipython().events.register('pre_run_cell', _hook)"
-    ),
-    # Errors are neither shown nor reported: the cell looks like it passed.
-    "post_run_cell_hook": (
-        "ip = get_ipython()\nip.showtraceback = lambda *a, **k: None\n"
-        "def _clear(result):\n    result.error_in_exec = None\n"
-        "ip.events.register('post_run_cell', _clear)"
-    ),
-    # Cells that call the checks are run as `pass`.
-    "run_cell_replaced": (
-        "ip = get_ipython()\n_run, _run_async = ip.run_cell, ip.run_cell_async\n"
-        "def _skip(cell):\n    return 'pass' if 'checks.' in cell else cell\n"
-        "ip.run_cell = lambda raw_cell, *a, **k: _run(_skip(raw_cell), *a, **k)\n"
-        "ip.run_cell_async = lambda raw_cell, *a, **k: _run_async(_skip(raw_cell), *a, **k)"
-    ),
-    "importlib": "import importlib\n_m = importlib.import_module('rosbook.labs.lab01')" + NEUTER,
-    "alias": "import rosbook.labs.lab01 as _m" + NEUTER,
-    "sys_modules": "import sys\n_m = sys.modules['rosbook.labs.lab01']" + NEUTER,
-    "gc": (
-        "import gc\n_m = next(o for o in gc.get_objects()\n"
-        "          if type(o).__name__ == 'module' and o.__name__ == 'rosbook.labs.lab01')" + NEUTER
-    ),
-    "exec_base64": (
-        "import base64\nexec(base64.b64decode("
-        + repr(base64.b64encode(("import rosbook.labs.lab01 as _m" + NEUTER).encode()).decode())
-        + "))"
-    ),
-    # `checks` is looked up in the builtins once the notebook's own name is gone.
-    "builtins_override": (
-        "import builtins, types\n_m = types.SimpleNamespace(**vars(checks))"
-        + NEUTER
-        + "builtins.checks = _m\ndel checks"
-    ),
-    # A test cell's output that says "pass", and no error output at all.
-    "fake_pass_printed": (
-        "ip = get_ipython()\nip.showtraceback = lambda *a, **k: print('PASS: all checks passed')"
-    ),
-}
 
 #: The attack that ships a package: the submission folder holds its own `rosbook`
 #: (the real one, with neutered checks), first on the kernel's sys.path.
@@ -134,6 +86,9 @@ def graded(tmp_path_factory: pytest.TempPathFactory) -> tuple[dict[str, dict[str
     submit(root, "spin_stuck_in_cell", LAB, answered(LAB, **stuck))
     for name, source in ATTACKS.items():
         submit(root, name, LAB, extra_cell(wrong(), source))
+    reader = extra_cell(answered(LAB), SOURCE_PRINTER)
+    reader.cells.append(nbformat.v4.new_code_cell(HISTORY_PRINTER))
+    submit(root, "hidden_source_reader", LAB, reader)
     submit(root, SHIPPED, LAB, wrong())
     ship_rosbook(root)
     out = tmp_path_factory.mktemp("out")
@@ -204,6 +159,25 @@ def test_cells_after_one_that_keeps_the_kernel_busy_are_not_run_and_say_so(grade
         )
     log = (out / "logs" / "spin_stuck_in_cell" / f"{LAB}.log").read_text()
     assert "[judge] test_doubler" not in log and "[judge] test_talker_script" not in log, log
+
+
+def test_the_kernel_never_gets_a_hidden_test_and_the_lab_still_grades_right(graded) -> None:
+    """A student's IPython hooks print every cell's source before and after it runs, and
+    a last cell prints the input history: none of them, nor the feedback, shows a line
+    of the hidden tests (the kernel gets each test cell as released); the right answer
+    still earns every point, hidden checks included (the judge runs them)."""
+    rows, out = graded
+    r = rows["hidden_source_reader"]
+    assert (r["score"], r["status"]) == ("10", "ok"), r
+    autograded = out / "autograded" / "hidden_source_reader" / LAB / f"{LAB}.ipynb"
+    page = html.unescape(feedback(out, "hidden_source_reader", LAB))
+    assert page.count("passed: the grader checked this cell on your code") == 4
+    seen = output_text(nbformat.read(autograded, as_version=4)) + page
+    assert "POST-RUN:" in seen and "HISTORY:" in seen
+    assert "checks.make_node(Doubler)" in seen  # a visible test line: the readers saw tests
+    hidden = hidden_only_lines(LAB)
+    assert len(hidden) > 20
+    assert [line for line in hidden if line in seen] == []
 
 
 @pytest.mark.parametrize("attack", [*ATTACKS, SHIPPED])

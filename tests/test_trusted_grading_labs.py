@@ -20,9 +20,17 @@ import nbformat
 import pytest
 
 from autograder.config import ROOT
-from tests.labtools import answered, feedback, grade, replace_in_answer, submit
-from tests.test_lab01 import extra_cell
-from tests.test_trusted_grading import ATTACKS, NEUTER
+from tests.labtools import (
+    ATTACKS,
+    NEUTER,
+    answered,
+    extra_cell,
+    feedback,
+    grade,
+    live_marked_processes,
+    replace_in_answer,
+    submit,
+)
 
 #: Each case grades attack notebooks with the documented command: out of `make test-fast`.
 pytestmark = pytest.mark.slow
@@ -102,7 +110,6 @@ def attacked_release(
 def test_lab6_builds_and_launches_are_judged_outside_the_kernel(tmp_path: Path) -> None:
     """Lab 6's checks skipped or replaced in the kernel earn nothing: the judge builds,
     runs and launches the student's work itself; and no process is left behind."""
-    from tests.test_lab01 import live_marked_processes
 
     lab6 = "lab06_launch_system"
     # test_two_robots: its check is a module function, replaced
@@ -185,12 +192,11 @@ def lab_attacks(lab: str) -> dict[str, str]:
     test cells (all call the lab's checks module) turned into `pass`; the checks replaced
     before every cell by a hook; the checks module patched once."""
     module = JUDGED_MODULES[lab]
-    alias = "qos_checks" if lab == "lab02_qos" else "service_checks"
     return {
         "input_transformer": ATTACKS["input_transformer"],
         "test_cells_transformed": (
             "get_ipython().input_transformers_post.append(\n"
-            f"    lambda lines: ['pass\\n'] if '{alias}.' in ''.join(lines) else lines)"
+            "    lambda lines: ['pass\\n'] if 'checks.' in ''.join(lines) else lines)"
         ),
         "pre_run_cell_hook": ATTACKS["pre_run_cell_hook"].replace("rosbook.labs.lab01", module),
         "patched_checks": f"import {module} as _m" + NEUTER,

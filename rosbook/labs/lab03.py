@@ -17,6 +17,7 @@ from std_srvs.srv import Trigger
 from test_msgs.action import Fibonacci
 
 from rosbook.labs.deferral import deferrable
+from rosbook.labs.probes import *  # noqa: F403 (the shared probes, as checks.X)
 from rosbook.labs.probes import CheckFailed, Probe
 from rosbook.runtime.actions import GoalRun, run_goal
 from rosbook.runtime.interfaces import interface_name
