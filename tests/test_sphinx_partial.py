@@ -24,7 +24,7 @@ def build(tmp_path: Path, link: str, excluded: list[str]) -> subprocess.Complete
     (src / "conf.py").write_text(CONF.format(excluded=", ".join(map(repr, excluded))))
     (src / "_toc.yml").write_text(TOC)
     (src / "intro.md").write_text("# Intro\n\n```{toctree}\n:glob:\n\n*\n```\n")
-    (src / "first.md").write_text(f"# First\n\nSee [the next one]({link}).\n")
+    (src / "first.md").write_text(f"# First\n\nSee {link}.\n")
     (src / "second.md").write_text("# Second\n\nText.\n")
     (src / "aside.md").write_text("# Aside\n\nText.\n")
     command = [sys.executable, "-m", "sphinx", "-W", "-n", "-q", "-b", "html"]
@@ -36,19 +36,27 @@ def build(tmp_path: Path, link: str, excluded: list[str]) -> subprocess.Complete
     )
 
 
-def test_a_partial_build_accepts_a_link_to_a_chapter_it_left_out(tmp_path: Path) -> None:
-    done = build(tmp_path, "second.md", excluded=["second.md"])
+@pytest.mark.parametrize("link", ["[the next one](second.md)", "{doc}`second`"])
+def test_a_partial_build_accepts_a_link_to_a_chapter_it_left_out(tmp_path: Path, link: str) -> None:
+    done = build(tmp_path, link, excluded=["second.md"])
     assert done.returncode == 0, done.stderr
 
 
 @pytest.mark.parametrize(
-    ("link", "excluded"),
-    [("third.md", []), ("third.md", ["second.md"]), ("aside.md", ["aside.md"])],
+    ("link", "excluded", "warning"),
+    [
+        ("[the third](third.md)", [], "[myst.xref_missing]"),
+        ("[the third](third.md)", ["second.md"], "[myst.xref_missing]"),
+        ("[an aside](aside.md)", ["aside.md"], "[myst.xref_missing]"),
+        ("{doc}`third`", ["second.md"], "unknown document"),
+        ("{doc}`aside`", ["aside.md"], "unknown document"),
+    ],
 )
 def test_a_link_to_a_document_the_book_does_not_have_still_fails(
-    tmp_path: Path, link: str, excluded: list[str]
+    tmp_path: Path, link: str, excluded: list[str], warning: str
 ) -> None:
     # third.md does not exist; aside.md exists but is no chapter of the book (_toc.yml)
     done = build(tmp_path, link, excluded=excluded)
     assert done.returncode != 0
-    assert "[myst.xref_missing]" in done.stderr and link.removesuffix(".md") in done.stderr
+    target = "third" if "third" in link else "aside"
+    assert warning in done.stderr and target in done.stderr
