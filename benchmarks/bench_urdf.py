@@ -29,7 +29,7 @@ def run() -> list[Figure]:
     own = weight.html + sum(v for k, v in weight.assets.items() if k not in theme.assets)
     return [
         Figure("urdf page: HTML + viewer JS (target < 2 MB)", own / MB, "MB"),
-        Figure("urdf page: HTML alone (6 scenes)", weight.html / MB, "MB"),
+        Figure(f"urdf page: HTML alone ({len(scenes)} scenes)", weight.html / MB, "MB"),
         Figure("urdf page: everything incl. theme assets", weight.total / MB, "MB"),
         Figure("book theme assets on every page", (theme.total - theme.html) / MB, "MB"),
         Figure("shared MeshCat viewer JS (once per book)", VIEWER_JS.stat().st_size / MB, "MB"),
