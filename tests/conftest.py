@@ -92,7 +92,11 @@ def session() -> Iterator[Session]:
 #: with the library, the dependencies and the book's settings, which outputs depend on.
 BOOK_CACHE = ROOT / "_build" / "test-book-cache"
 #: What executed chapters depend on besides their own code.
-BOOK_INPUTS = ["rosbook", "requirements.txt", "pyproject.toml", "_config.yml"]
+# The guides execute grading (autograder/) on the labs (labs/, solutions/).
+BOOK_INPUTS = [
+    "rosbook", "autograder", "labs", "solutions",
+    "requirements.txt", "pyproject.toml", "_config.yml",
+]  # fmt: skip
 
 
 def book_cache_key(root: Path = ROOT) -> str:
