@@ -29,11 +29,11 @@ from autograder.judge import (
     _python_value,
     ros_node,
 )
-from autograder.lockstep import (
-    require_endpoint,
-)
 from rosbook.demos.qos import predict_processed
 from rosbook.labs import lab02 as qos_checks
+from rosbook.labs.lockstep import (
+    require_endpoint,
+)
 from rosbook.runtime.session import ros
 
 #: Hang guard of a wait for a match across processes (or the event that says it never

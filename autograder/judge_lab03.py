@@ -32,7 +32,8 @@ from autograder.judge import (
     Unreadable,
     ros_node,
 )
-from autograder.lockstep import (
+from rosbook.labs import lab03 as service_checks
+from rosbook.labs.lockstep import (
     LOCKSTEP_GUARD_S,
     RemoteClock,
     RemoteNode,
@@ -42,7 +43,6 @@ from autograder.lockstep import (
     wait_for,
     wait_until_discovered,
 )
-from rosbook.labs import lab03 as service_checks
 from rosbook.labs.probes import Probe, assert_sequence
 from rosbook.runtime.actions import GoalRun
 from rosbook.runtime.services import BackgroundServer, call

@@ -30,7 +30,8 @@ from geometry_msgs.msg import Twist
 from nav_msgs.msg import Odometry
 
 from autograder.judge import CheckFailed, Judgement, JudgeTimeout, KernelError
-from autograder.lockstep import (
+from rosbook.labs import lab05 as drive_checks
+from rosbook.labs.lockstep import (
     LOCKSTEP_GUARD_S,
     RemoteNode,
     await_discovered_by,
@@ -40,7 +41,6 @@ from autograder.lockstep import (
     wait_for,
     wait_until_discovered,
 )
-from rosbook.labs import lab05 as drive_checks
 from rosbook.runtime.session import ros
 from rosbook.sim.node import DiffDriveSimNode
 from rosbook.sim.physics import Box, DiffDriveSim, Trajectory, World

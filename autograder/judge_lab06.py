@@ -54,10 +54,10 @@ from autograder.judge import (
     clock_publisher,
     ros_node,
 )
-from autograder.lockstep import (
+from rosbook.labs import lab06
+from rosbook.labs.lockstep import (
     CLOCK_RETRY_S,
 )
-from rosbook.labs import lab06
 from rosbook.labs.probes import Probe, ScriptRun, run_program
 from rosbook.launch.launcher import ESCALATED
 from rosbook.runtime.session import ros

@@ -36,7 +36,7 @@ from nbgrader.preprocessors import ClearHiddenTests, Execute
 
 from autograder import sandbox
 from autograder.feedback import is_test_cell
-from autograder.judge import Verdict, judged_checks, missing_check
+from autograder.judge import JUDGED_LABS, Verdict, judged_checks, missing_check, setup_cells
 from autograder.kernels import CappedExecute, not_run_output
 
 #: Wall-clock guard on one verdict (a hang guard: hitting it is a "timeout").
@@ -54,6 +54,12 @@ class Judging:
     checks: set[str]
     verdicts: dict[str, Verdict] = field(default_factory=dict)
     process: subprocess.Popen[str] | None = None
+    #: The judge runs every test cell's own source (a lab without a judge module).
+    every_cell: bool = False
+
+    def judges(self, grade_id: str) -> bool:
+        """Whether the judge decides test cell ``grade_id``."""
+        return self.every_cell or grade_id in self.checks
 
     def start(self) -> None:
         """Start this submission's judge unless it runs: its interpreter, rclpy and ROS
@@ -79,7 +85,11 @@ class Judging:
         folder: str,
         sandbox_pid: int | None = None,
         cell_timeout: float | None = None,
+        source: str = "",
+        setup: list[str] | None = None,
     ) -> Verdict:
+        """The judge's verdict on test cell ``grade_id`` (``source``: the instructor's,
+        hidden tests and all; ``setup``: the notebook's setup cells)."""
         self.start()  # again if it died on an earlier check
         assert self.process is not None
         assert self.process.stdin is not None and self.process.stdout is not None
@@ -90,6 +100,8 @@ class Judging:
             "folder": folder,
             "sandbox_pid": sandbox_pid,
             "cell_timeout": cell_timeout,
+            "source": source,
+            "setup": setup or [],
         }
         try:
             self.process.stdin.write(json.dumps(request) + "\n")
@@ -133,9 +145,10 @@ _current: Judging | None = None
 def judging(assignment_id: str) -> Iterator[Judging]:
     """Judge the test cells of ``assignment_id`` for the nbgrader run inside this block."""
     global _current
-    _current = Judging(assignment_id, set(judged_checks(assignment_id)))
+    checks = set(judged_checks(assignment_id))
+    _current = Judging(assignment_id, checks, every_cell=assignment_id not in JUDGED_LABS)
     try:
-        if _current.checks:
+        if _current.checks or _current.every_cell:
             _current.start()
         yield _current
     finally:
@@ -156,7 +169,7 @@ class JudgedExecute(CappedExecute):  # type: ignore[misc]
             return super().preprocess_cell(cell, resources, index)  # type: ignore[no-any-return]
         grade_id = cell.get("metadata", {}).get("nbgrader", {}).get("grade_id")
         sent = sent_to_kernel(cell)
-        if grade_id not in _current.checks:
+        if not _current.judges(grade_id):
             why = missing_check(_current.assignment_id, grade_id)
             verdict = Verdict(grade_id, False, f"not graded: {why}", broken=True)
         elif self.busy_with is not None:  # the judge would wait on the kernel for nothing
@@ -179,12 +192,14 @@ class JudgedExecute(CappedExecute):  # type: ignore[misc]
                 folder,
                 getattr(self.km, "sandbox_pid", None),
                 self.timeout,
+                cell.source,
+                setup_cells(self.nb),
             )
         _current.verdicts[grade_id] = verdict
         shown = [nbformat.from_dict(output) for output in verdict.outputs]
         # a check that timed out in the judge would only time out again in the kernel
         if (
-            grade_id in _current.checks
+            _current.judges(grade_id)
             and self.busy_with is None
             and sent.source.strip()
             and (shown or verdict.timeout or not shows_figures(sent.source))
@@ -192,7 +207,7 @@ class JudgedExecute(CappedExecute):  # type: ignore[misc]
             defer_next_cell(self.kc)
         sent, resources = super().preprocess_cell(sent, resources, index)
         ran = sent.get("outputs", [])
-        if grade_id in _current.checks and sent.source.strip():
+        if _current.judges(grade_id) and sent.source.strip():
             outputs = []
             for output in ran:
                 outputs += [*shown, verdict_output(verdict)] if is_deferral(output) else [output]

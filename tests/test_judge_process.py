@@ -17,10 +17,10 @@ from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
+import nbformat
 import pytest
 
 from autograder import judge, sandbox
-from autograder.judge_lab01 import check_counter_subscriber
 from autograder.verdicts import judging
 from rosbook.runtime.kernels import UnixSocketKernelManager
 from rosbook.runtime.session import Session
@@ -114,8 +114,8 @@ class Following:
     ) -> None:
         from std_msgs.msg import String
 
-        from autograder.lockstep import read_ack
         from rosbook.labs.agent import ACK_TOPIC
+        from rosbook.labs.lockstep import read_ack
 
         self.session, self.kernel, self.until = session, kernel, until
         self.node = judge.ros_node(name)
@@ -154,7 +154,7 @@ def test_a_kernel_says_which_subscriptions_its_node_can_send_to(session: Session
     to be among them before time moves."""
     from std_msgs.msg import Int64
 
-    from autograder.lockstep import wait_until_discovered
+    from rosbook.labs.lockstep import wait_until_discovered
 
     talker = (
         "from rclpy.node import Node\n"
@@ -187,7 +187,7 @@ def test_a_kernel_says_when_it_has_discovered_the_judges_publisher(
     publisher that does not exist, and for the judge's once discovery found it."""
     from std_msgs.msg import Int64
 
-    from autograder.lockstep import await_discovered_by
+    from rosbook.labs.lockstep import await_discovered_by
 
     with judged_kernel(QUEUED_SUBSCRIBER + IN_ORDER) as kernel:
         assert kernel.call("start", "CounterSubscriber", {}, False)["name"] == "counter_subscriber"
@@ -375,11 +375,15 @@ def judged_kernel(code: str, cwd: Path | None = None) -> Iterator[judge.Kernel]:
 
 def judge_check(kernel: judge.Kernel, assignment: str, check: str, folder: Path) -> judge.Verdict:
     """The judge's verdict on ``check`` of ``assignment`` for the student in ``kernel``."""
+    source = nbformat.read(notebook_path(assignment, released=False), as_version=4)
+    cell = next(c for c in source.cells if grade_id(c) == check)
     request = {
         "check": check,
         "assignment": assignment,
         "connection_file": kernel.client.connection_file,
         "folder": str(folder),
+        "source": cell.source,
+        "setup": judge.setup_cells(source),
     }
     return judge.judge_one(request, {kernel.client.connection_file: kernel})
 
@@ -436,7 +440,7 @@ STALLS = """
     [
         (LATE, None),
         (SKIPS_ZERO, r"expected \[7, -2, 0, .*got \[7, -2, 1099511627776"),
-        (STALLS, r"timeout: node 'counter_subscriber' handled 2 of the 3 values sent"),
+        (STALLS, r"timeout: handled 2 of the 3 values sent on /counter"),
     ],
     ids=["late", "skips-zero", "stalls"],
 )
@@ -446,17 +450,9 @@ def test_a_value_not_handled_in_the_guard_is_waited_out_not_marked_wrong(
     """A subscriber that is slow past the judge's guard passes once it catches up; one
     that skips a value fails as wrong; one that falls silent, right so far, is a timeout."""
     with judged_kernel(QUEUED_SUBSCRIBER + work) as kernel:
-        j = judge.Judgement(kernel, tmp_path)
-        if verdict is None:
-            check_counter_subscriber(j)
-            return
-        try:
-            check_counter_subscriber(j)
-        except (AssertionError, judge.JudgeTimeout) as exc:  # wrong (the checks' own), timeout
-            said = f"timeout: {exc}" if isinstance(exc, judge.JudgeTimeout) else str(exc)
-        else:
-            said = "passed"
-        assert re.search(verdict, said), said
+        got = judge_check(kernel, "lab01_nodes_topics", "test_counter_subscriber", tmp_path)
+    said = "passed" if got.passed else got.message
+    assert re.search(verdict or "passed", said), said
 
 
 @pytest.mark.slow  # waits out the guard after Ctrl-C
@@ -515,8 +511,8 @@ def test_a_call_whose_limit_passed_is_a_timeout_not_wrong(
     """A check's call that got no answer within its limit (here no server at all, with
     the limit cut to 0.5 s) is a verdict of "timeout" (a hang guard), not of wrong code;
     a call that failed otherwise still fails the check."""
-    from autograder import judge_lab03, lockstep
-    from rosbook.labs import lab03
+    from autograder import judge_lab03
+    from rosbook.labs import lab03, lockstep
     from rosbook.runtime.params import ParameterError
 
     monkeypatch.setattr(lab03, "DISCOVERY_S", 0.5)

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import json
 import pickle
+import threading
 import time
 from typing import Any
 
@@ -64,6 +65,41 @@ def plain(value: Any) -> dict[str, Any]:
     return {"type": type(value).__name__, "repr": repr(value)[:300]}
 
 
+def data(value: Any, depth: int = 0) -> dict[str, Any]:
+    """``value`` as JSON the judge decodes itself (``rosbook.labs.remote.decode``):
+    numbers, strings, None, and lists, tuples and string-keyed dicts of them; else its
+    type and repr. Only exact built-in types count: an ``int`` subclass whose ``__eq__``
+    the student wrote is described by its repr, never passed on as a number."""
+    kind = type(value)
+    if kind in (bool, int, float, str) or value is None:
+        return {"type": kind.__name__, "value": value}
+    if hasattr(value, "dtype") and hasattr(value, "tolist") and depth < 8:
+        return data(value.tolist(), depth + 1)  # a numpy number or array: its numbers
+    if depth < 8 and kind in (list, tuple):
+        key = "tuple" if kind is tuple else "list"
+        return {"type": kind.__name__, key: [data(v, depth + 1) for v in value]}
+    if depth < 8 and kind is dict and all(type(k) is str for k in value):
+        return {"type": "dict", "dict": [[k, data(v, depth + 1)] for k, v in value.items()]}
+    if kind in (set, frozenset) and all(type(v) is str for v in value):
+        return {"type": kind.__name__, "items": sorted(value)}
+    return {"type": kind.__name__, "repr": repr(value)[:300]}
+
+
+def describe(value: Any) -> dict[str, Any]:
+    """What the judge binds a student's name to: a class, a function, another object
+    (handles, used through the agent), or a value (its plain data)."""
+    import inspect
+
+    if inspect.isclass(value):
+        return {"kind": "class"}
+    if callable(value):
+        return {"kind": "function"}
+    shown = data(value)
+    if "repr" in shown:
+        return {"kind": "object"}
+    return {"kind": "value", "plain": shown}
+
+
 def stamp_ns(time_msg: Any) -> int:
     return int(time_msg.sec) * 1_000_000_000 + int(time_msg.nanosec)
 
@@ -93,6 +129,8 @@ class JudgeAgent:
         self.reply = "null"
         self.made: Any = None
         self.collected: list[Any] = []
+        self.background: threading.Thread | None = None
+        self.quiet = threading.Event()
 
     def _answer(self, value: Any) -> None:
         self.reply = json.dumps(value)
@@ -105,9 +143,12 @@ class JudgeAgent:
         kwargs: dict[str, Any],
         sim_time: bool,
         parameters: dict[str, Any] | None = None,
+        background: bool = False,
     ) -> None:
         """Build the student's ``factory(**kwargs)`` (``parameters``: its overrides) in a
-        fresh session; say what it is (name, endpoints)."""
+        fresh session; say what it is (name, endpoints). ``background``: spin it in a
+        thread of the kernel's until ``stop`` (a wall-time node answers what the judge
+        sends while the judge waits; each call of the judge's pauses it meanwhile)."""
         self.stop()
         ros.init(sim_time=sim_time)
         ros.hold_participant()  # the next check's node is seen at once: same participant
@@ -127,6 +168,54 @@ class JudgeAgent:
                 "subscriptions": self.node.get_subscriber_names_and_types_by_node(name, ns),
             }
         )
+        if background:
+            self._resume()
+
+    def _spin_in_background(self) -> None:
+        while not self.quiet.is_set():
+            self.executor.spin_once(timeout_sec=0.01)
+
+    def _pause(self) -> bool:
+        """Stop spinning in the background; whether it was."""
+        if self.background is None:
+            return False
+        self.quiet.set()
+        self.background.join()
+        self.background = None
+        return True
+
+    def _resume(self) -> None:
+        self.quiet.clear()
+        self.background = threading.Thread(
+            target=self._spin_in_background, name="rosbook-judge-spin", daemon=True
+        )
+        self.background.start()
+
+    # -- what the judge binds a test cell's names to ------------------------------------
+
+    def describe(self, names: list[str]) -> None:
+        """What each of the student's ``names`` is (``describe``); "missing" if undefined."""
+        from IPython import get_ipython
+
+        space = get_ipython().user_ns
+        self._answer([describe(space[n]) if n in space else {"kind": "missing"} for n in names])
+
+    def get(self, name: str) -> None:
+        self._answer(data(student(name)))
+
+    def call(self, name: str, args: list[Any]) -> None:
+        """Call the student's function ``name(*args)`` (the node spinning meanwhile, if it
+        spins in the background)."""
+        self._answer(data(student(name)(*args)))
+
+    def attribute(self, attribute: str) -> None:
+        """The started node's ``attribute`` (an ``AttributeError`` if it has none)."""
+        spinning = self._pause()
+        try:
+            self._answer(data(getattr(self.node, attribute)))
+        finally:
+            if spinning:
+                self._resume()
 
     def follow_clock(self, until: float, guard: float, gate: str | None = None) -> None:
         """Spin the node on the judge's /clock up to ``until``. After each new time, once
@@ -312,11 +401,17 @@ class JudgeAgent:
         """Wait until this participant has discovered every publisher ``gids`` on
         ``topic`` (the node's subscription takes nothing from one it has not: what that
         one sent before is lost, not late); whether it has, within ``guard`` seconds."""
+        self._await_known(self.node.get_publishers_info_by_topic, topic, gids, guard)
+
+    def await_readers(self, topic: str, gids: list[str], guard: float) -> None:
+        """Wait until this participant has discovered every subscription ``gids`` on
+        ``topic`` (the node's publisher sends only to those it knows)."""
+        self._await_known(self.node.get_subscriptions_info_by_topic, topic, gids, guard)
+
+    def _await_known(self, infos: Any, topic: str, gids: list[str], guard: float) -> None:
         end = time.monotonic() + guard
         while True:
-            known = {
-                bytes(e.endpoint_gid).hex() for e in self.node.get_publishers_info_by_topic(topic)
-            }
+            known = {bytes(e.endpoint_gid).hex() for e in infos(topic)}
             if set(gids) <= known or time.monotonic() > end:
                 break
             time.sleep(0.01)
@@ -350,6 +445,7 @@ class JudgeAgent:
         self._answer({"type": type(value).__name__, "error": None})
 
     def stop(self) -> None:
+        self._pause()
         if self.executor is not None:
             self.executor.shutdown(timeout_sec=0)
         if self.node is not None:

@@ -23,8 +23,8 @@ from geometry_msgs.msg import Twist
 from nav_msgs.msg import Odometry
 from rclpy.node import Node
 
-from rosbook.labs.deferral import deferrable
 from rosbook.labs import probes as checks
+from rosbook.labs.deferral import deferrable
 from rosbook.sim.diff_drive import body_twist as reference_body_twist
 from rosbook.sim.diff_drive import wheel_speeds as reference_wheel_speeds
 from rosbook.sim.node import Simulation

@@ -165,7 +165,16 @@ def restore_after_checks(shell: Any | None = None) -> CellRestore | None:
 
 
 def make_node(factory: Callable[..., T], *args: Any, **kwargs: Any) -> T:
-    """Build the student's node, turning a crash into a message that says where."""
+    """Build the student's node, turning a crash into a message that says where. When
+    graded, ``factory`` is a handle (``rosbook.labs.remote``): the node is built in the
+    student's kernel, on the session's time source, and what comes back is its
+    ``RemoteNode``."""
+    from rosbook.labs import remote
+
+    if isinstance(factory, remote.Student):
+        if args:
+            raise TypeError("make_node: pass a node's arguments by name when it is graded")
+        return remote.judgement().start_node(factory, sim_time=ros.sim_time, **kwargs)  # type: ignore[return-value]
     call = f"{getattr(factory, '__name__', factory)}({_call_args(args, kwargs)})"
     try:
         return factory(*args, **kwargs)
@@ -260,10 +269,12 @@ class Probe:
 
     def wait_for_publisher(self, timeout: float = MATCH_TIMEOUT_S) -> None:
         """Wait until a publisher is matched, or fail saying why there is none
-        (``await_match``)."""
+        (``await_match``); when graded, also until the student's node in the kernel
+        knows this subscription (it sends only to those it knows)."""
         if not await_match(self.node, self.topic, self.msg_type, self.sub.qos_profile,
                            lambda: self.sub.get_publisher_count() > 0, timeout):  # fmt: skip
             raise CheckFailed(explain_silence(self.node, self.topic, self.msg_type))
+        _known_in_kernel(self.node, self.topic, "subscription")
 
     def wait_for(self, count: int, timeout: float) -> Received:
         ros.spin_until(lambda: len(self.received.messages) >= count, timeout=timeout)
@@ -292,6 +303,7 @@ class Sender:
                 f"nobody subscribes to {self.topic} ({type_name(self.msg_type)}) after "
                 f"{timeout:.0f} s. " + _graph_summary(self.node, self.topic, "subscriber")
             )
+        _known_in_kernel(self.node, self.topic, "publisher")
 
     def send(self, values: Sequence[Any], spin_between: float = 0.01) -> None:
         """Publish one message per value, letting every node run in between."""
@@ -301,6 +313,16 @@ class Sender:
 
     def close(self) -> None:
         ros.remove(self.node)
+
+
+def _known_in_kernel(node: Node, topic: str, kind: str) -> None:
+    """When graded with the student's node in the kernel: wait until that node knows
+    ``node``'s ``kind`` on ``topic`` (discovery runs on each side on its own)."""
+    from rosbook.labs import remote
+
+    j = remote.judging()
+    if j is not None and j.started is not None:
+        j.await_known(node, topic, kind)
 
 
 def await_match(
@@ -433,7 +455,13 @@ def run_script(
 
     ``wrap`` turns the command into the one actually run (the grader's judge runs a
     student's script through it); ``env``: its environment (default: this process's)."""
-    script = Path(path)
+    from rosbook.labs import remote
+
+    j = remote.judging()
+    if j is not None:  # graded: the student's folder, run as the student, in the sandbox
+        script = j.folder / path
+        cwd, wrap = j.folder, j.wrap
+    script = Path(path) if j is None else script
     if not script.exists():
         raise CheckFailed(f"{script.name} does not exist: did you run the %%writefile cell?")
     argv = [sys.executable, "-u", str(script)]
@@ -471,7 +499,12 @@ def run_program(
         run.kill()
 
 
-class StillRunning(CheckFailed):
+class TimedOut(CheckFailed):
+    """A wall-clock guard was hit while waiting for an event: a hang, or a starved
+    machine. A grader reports it as a timeout, never as wrong."""
+
+
+class StillRunning(TimedOut):
     """A script outlived the wall-clock guard after Ctrl-C: a hang, or a starved machine.
     The guard cannot tell which, so a grader reports it as a timeout, never as wrong."""
 

@@ -23,10 +23,12 @@ from rclpy.event_handler import SubscriptionEventCallbacks
 from rclpy.node import Node
 from std_msgs.msg import String
 
-from autograder.judge import (
+from rosbook.labs.agent import ACK_TOPIC
+from rosbook.labs.lab03 import SIM_STEP_S
+from rosbook.labs.probes import CheckFailed, assert_endpoint
+from rosbook.labs.remote import (
     EVENT_GUARD_S,
     KERNEL_REPLY_GUARD_S,
-    CheckFailed,
     Judgement,
     JudgeTimeout,
     KernelError,
@@ -35,9 +37,6 @@ from autograder.judge import (
     drain,
     ros_node,
 )
-from rosbook.labs.agent import ACK_TOPIC
-from rosbook.labs.lab03 import SIM_STEP_S
-from rosbook.labs.probes import assert_endpoint
 from rosbook.runtime.callbacks import Callbacks, WakingExecutor
 from rosbook.runtime.session import ros
 
