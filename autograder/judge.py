@@ -363,6 +363,41 @@ def free_names(tree: ast.AST) -> set[str]:
     return read - bound_names(tree) - set(dir(builtins))
 
 
+def checks_aliases(setup: list[str]) -> set[str]:
+    """The names the setup cells bind to a ``rosbook.labs`` module (``checks``)."""
+    names = set()
+    for source in setup:
+        try:
+            tree = ast.parse(source)
+        except SyntaxError:
+            continue
+        for node in ast.walk(tree):
+            if isinstance(node, ast.ImportFrom) and (node.module or "").startswith("rosbook.labs"):
+                names |= {a.asname or a.name for a in node.names}
+            elif isinstance(node, ast.Import):
+                names |= {
+                    a.asname for a in node.names if a.asname and a.name.startswith("rosbook.labs")
+                }
+    return names
+
+
+def calls_checks(source: str, setup: list[str]) -> bool:
+    """Whether test cell ``source`` (as the kernel gets it) calls the lab's checks: its
+    run in the kernel is then deferred (``rosbook.labs.deferral``), and passes there only
+    if forged. A cell that calls none can pass in the kernel honestly."""
+    aliases = checks_aliases(setup)
+    try:
+        tree = ast.parse(source)
+    except SyntaxError:
+        return False
+    return any(
+        isinstance(node, ast.Attribute)
+        and isinstance(node.value, ast.Name)
+        and node.value.id in aliases
+        for node in ast.walk(tree)
+    )
+
+
 def parse_cell(source: str) -> ast.Module:
     """A test cell's code; ``SyntaxError`` (with what to do) for IPython's own syntax
     (``%magic``, ``!shell``), which only a kernel runs."""

@@ -36,7 +36,14 @@ from nbgrader.preprocessors import ClearHiddenTests, Execute
 
 from autograder import sandbox
 from autograder.feedback import is_test_cell
-from autograder.judge import JUDGED_LABS, Verdict, judged_checks, missing_check, setup_cells
+from autograder.judge import (
+    JUDGED_LABS,
+    Verdict,
+    calls_checks,
+    judged_checks,
+    missing_check,
+    setup_cells,
+)
 from autograder.kernels import CappedExecute, not_run_output
 
 #: Wall-clock guard on one verdict (a hang guard: hitting it is a "timeout").
@@ -56,6 +63,9 @@ class Judging:
     process: subprocess.Popen[str] | None = None
     #: The judge runs every test cell's own source (a lab without a judge module).
     every_cell: bool = False
+    #: Test cells whose run in the kernel calls the lab's checks (deferred there): only
+    #: such a cell's pass in the kernel is a forged one.
+    deferring: set[str] = field(default_factory=set)
 
     def judges(self, grade_id: str) -> bool:
         """Whether the judge decides test cell ``grade_id``."""
@@ -169,6 +179,8 @@ class JudgedExecute(CappedExecute):  # type: ignore[misc]
             return super().preprocess_cell(cell, resources, index)  # type: ignore[no-any-return]
         grade_id = cell.get("metadata", {}).get("nbgrader", {}).get("grade_id")
         sent = sent_to_kernel(cell)
+        if not _current.every_cell or calls_checks(sent.source, setup_cells(self.nb)):
+            _current.deferring.add(grade_id)
         if not _current.judges(grade_id):
             why = missing_check(_current.assignment_id, grade_id)
             verdict = Verdict(grade_id, False, f"not graded: {why}", broken=True)
@@ -207,11 +219,11 @@ class JudgedExecute(CappedExecute):  # type: ignore[misc]
             defer_next_cell(self.kc)
         sent, resources = super().preprocess_cell(sent, resources, index)
         ran = sent.get("outputs", [])
-        if _current.judges(grade_id) and sent.source.strip():
+        if _current.judges(grade_id) and any(map(is_deferral, ran)):
             outputs = []
             for output in ran:
                 outputs += [*shown, verdict_output(verdict)] if is_deferral(output) else [output]
-        else:  # nothing of it ran in the kernel, or nothing there is scored: the verdict
+        else:  # its run in the kernel (a hint) or none, then the verdict that scores
             outputs = [*ran, *shown, verdict_output(verdict)]
         cell.outputs, cell.execution_count = outputs, sent.get("execution_count")
         # nbclient put the copy it ran in the notebook: the graded notebook keeps the
@@ -305,7 +317,7 @@ def apply_verdicts(
                 judged.timed_out.append(grade.name)
             elif verdict is None or verdict.broken:
                 judged.broken.append(grade.name)
-            elif not passed and (grade.auto_score or 0) > 0:
+            elif not passed and (grade.auto_score or 0) > 0 and grade.name in run.deferring:
                 judged.claimed.append(grade.name)
             if not passed:
                 judged.messages[grade.name] = (

@@ -1,10 +1,12 @@
-"""Every lab's test cells are decided by the judge, never by the student's kernel.
+"""Every lab's test cells are run by the judge as the instructor wrote them, never
+scored by the student's kernel.
 
-``make labs`` refuses a lab with a test cell the judge has no check for, naming the lab,
-the cell and why; grading scores such a cell nothing, whatever its run in the kernel
-said, and the kernel never gets a hidden test's source. The lab added here is a small
-one from ``tests/fixtures`` (a ``Greeter`` node with a ``name`` parameter), released and
-graded with the real commands, nbgrader and a sandboxed kernel.
+``make labs`` refuses a lab with a test cell the judge cannot run outside the kernel,
+naming the lab, the cell and why; the kernel never gets a hidden test's source. The lab
+added here is a small one from ``tests/fixtures`` (a ``Greeter`` node with a ``name``
+parameter: a notebook and nothing else), released and graded with the real commands,
+nbgrader and a sandboxed kernel: it is judged with no file of the grader's touched, and
+an edit to its hidden test changes the grade.
 """
 
 from __future__ import annotations
@@ -60,27 +62,47 @@ def test_a_student_has_each_test_cell_as_grading_sends_it_to_the_kernel(lab: str
     assert all("HIDDEN TESTS" not in text for text in sent.values())
 
 
-def test_a_grade_id_missing_from_its_judge_module_is_named_with_the_module() -> None:
+def test_a_test_cell_reading_a_name_no_cell_defines_is_named_with_the_name() -> None:
     lab = "lab01_nodes_topics"
     notebook = nbformat.read(SOLUTIONS / lab / f"{lab}.ipynb", as_version=4)
     for cell in notebook.cells:
         if grade_id(cell) == "test_doubler":
-            cell.metadata.nbgrader["grade_id"] = "test_tripler"
+            cell.source = cell.source.replace("make_node(Doubler", "make_node(Tripler")
     assert unjudged_cells(lab, notebook) == [
-        f"{lab}: test cell test_tripler: autograder.judge_lab01.CHECKS has no check named "
-        "'test_tripler'"
+        f"{lab}: test cell test_doubler: uses Tripler, which no cell of the notebook defines "
+        "(the judge runs the test cell outside the kernel, with the setup cells' names and "
+        "the student's)"
     ]
 
 
-def test_make_labs_refuses_a_lab_whose_test_cell_has_no_judge_check(tmp_path: Path) -> None:
+def test_a_test_cell_in_ipython_syntax_is_named_with_its_line() -> None:
+    lab = "lab01_nodes_topics"
+    notebook = nbformat.read(SOLUTIONS / lab / f"{lab}.ipynb", as_version=4)
+    for cell in notebook.cells:
+        if grade_id(cell) == "test_doubler":
+            cell.source = "%time x = 1\n" + cell.source
+    assert unjudged_cells(lab, notebook) == [
+        f"{lab}: test cell test_doubler: line 1 is IPython syntax (%time), which the judge "
+        "cannot run outside the kernel: write it as Python"
+    ]
+
+
+def test_make_labs_refuses_a_lab_whose_test_cell_the_judge_cannot_run(tmp_path: Path) -> None:
+    source = nbformat.read(FIXTURES / LAB / f"{LAB}.ipynb", as_version=4)
+    for cell in source.cells:
+        if is_test_cell(cell):
+            cell.source = cell.source.replace("node = Greeter()", "node = Welcomer()")
+    (tmp_path / LAB).mkdir()
+    nbformat.write(source, tmp_path / LAB / f"{LAB}.ipynb")
     done = subprocess.run(
-        [sys.executable, "-m", "autograder", "labs", LAB, "--solutions", str(FIXTURES)],
+        [sys.executable, "-m", "autograder", "labs", LAB, "--solutions", str(tmp_path)],
         capture_output=True, text=True, cwd=ROOT, timeout=600, check=False,
     )  # fmt: skip
     assert done.returncode == 1, done.stdout + done.stderr
     assert done.stderr.splitlines()[0] == (
-        f"error: {LAB}: test cell test_greeter: the lab has no judge module ({LAB} is not "
-        "in JUDGED_LABS, autograder/judge.py)"
+        f"error: {LAB}: test cell test_greeter: uses Welcomer, which no cell of the notebook "
+        "defines (the judge runs the test cell outside the kernel, with the setup cells' "
+        "names and the student's)"
     ), done.stderr
     assert "Nothing was generated" in done.stderr
     assert not (ROOT / "labs" / LAB).exists()
@@ -151,21 +173,50 @@ def graded(template: Path, tmp: Path, notebook: nbformat.NotebookNode) -> tuple[
 
 @pytest.mark.slow
 @pytest.mark.parametrize("forged", [False, True], ids=["honest", "input_transformer"])
-def test_an_unjudged_test_cell_scores_nothing_and_the_kernel_never_sees_its_hidden_tests(
+def test_an_added_lab_is_judged_outside_the_kernel_which_never_sees_its_hidden_tests(
     template: Path, tmp_path: Path, forged: bool
 ) -> None:
-    """The in-kernel run of a test cell the judge cannot decide is never scored: an
-    honest right answer and one whose kernel forges a pass (every later cell run as
-    ``pass``) both score 0, status ``error``, with the cell named. A student's hooks
-    printing each cell's source, and its input history, show no hidden test."""
+    """A lab added as a notebook alone is judged: the right answer scores full marks,
+    and one whose kernel forges a pass (every later cell run as ``pass``, the solution's
+    too) scores nothing. A student's hooks printing each cell's source, and its input
+    history, show no hidden test."""
     cells = [SOURCE_PRINTER, FORGE] if forged else [SOURCE_PRINTER]
     result, seen = graded(template, tmp_path, submission(template, *cells))
-    assert (result["score"], result["status"]) == (0, "error"), result
-    assert "test_greeter (not graded: the lab has no judge module" in str(result["message"])
-    assert "PRE-RUN:" in seen, seen[:3000]  # the hooks ran
-    assert "GraderError: not graded: the lab has no judge module" in seen  # the cell says why
-    if not forged:  # (forged, the last cell runs as ``pass`` too)
+    if forged:
+        assert result["score"] == 0, result
+        assert "passed: the grader checked" not in seen
+    else:
+        assert (result["score"], result["status"]) == (3, "ok"), result
         assert "HISTORY:" in seen, seen[:3000]
         assert "Greeter declares 'name'" in seen  # the visible part of the test ran
+        assert "passed: the grader checked this cell on your code" in seen
+    assert "PRE-RUN:" in seen, seen[:3000]  # the hooks ran
     hidden = hidden_only_lines(LAB, FIXTURES, template / "release")
     assert hidden and all(line not in seen for line in hidden), hidden
+
+
+@pytest.mark.slow
+def test_an_instructors_edit_to_a_hidden_test_changes_the_grade(tmp_path: Path) -> None:
+    """The hidden test's expected greeting edited in the source notebook (and nothing
+    else): the same right answer now fails that cell, with the edited test's message."""
+    source = nbformat.read(FIXTURES / LAB / f"{LAB}.ipynb", as_version=4)
+    for cell in source.cells:
+        if is_test_cell(cell):
+            assert '"Hello, hidden ROS!"' in cell.source
+            cell.source = cell.source.replace('"Hello, hidden ROS!"', '"Hi, hidden ROS!"')
+    edited = tmp_path / "solutions"
+    (edited / LAB).mkdir(parents=True)
+    nbformat.write(source, edited / LAB / f"{LAB}.ipynb")
+    template = tmp_path / "template" / LAB
+    generate(template, LAB, solutions=edited)
+    folder = tmp_path / "submitted" / LAB
+    folder.mkdir(parents=True)
+    nbformat.write(submission(template), folder / f"{LAB}.ipynb")
+    job = Job(
+        str(template), LAB, "student", str(folder), f"{LAB}.ipynb", str(tmp_path / "course"),
+        str(tmp_path / "feedback.html"), 30,
+    )  # fmt: skip
+    result = worker_grades(job)
+    assert result["score"] == 0, result
+    feedback = html.unescape((tmp_path / "feedback.html").read_text())
+    assert "Hello, hidden ROS!" in feedback  # the assertion's message: what the node said

@@ -43,12 +43,13 @@ def test_the_judge_starts_with_the_submission_before_any_cell() -> None:
         assert run.process is None and process.poll() is not None  # ended with the block
 
 
-def test_an_assignment_without_judged_checks_starts_no_judge() -> None:
-    """Every lab of the course is judged; an assignment without a judge module (``make
-    labs`` refuses it, and graded, its test cells score nothing) starts no judge."""
-    assert judge.judged_checks("lab99_new") == {}
-    with judging("lab99_new") as run:
-        assert run.process is None
+def test_a_lab_added_as_a_notebook_alone_is_judged_too() -> None:
+    """A lab with no file of the grader's (its test cells are the judge's script) has
+    every test cell decided by the judge, which starts with the submission."""
+    with sandbox.Network() as network, sandbox.using(network):
+        with judging("lab99_new") as run:
+            assert run.judges("test_anything")
+            assert run.process is not None and run.process.poll() is None
 
 
 def test_what_a_check_shows_travels_with_its_verdict(tmp_path: Path) -> None:

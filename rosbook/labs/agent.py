@@ -85,6 +85,17 @@ def data(value: Any, depth: int = 0) -> dict[str, Any]:
     return {"type": kind.__name__, "repr": repr(value)[:300]}
 
 
+def argument(value: Any) -> Any:
+    """An argument the judge sent (``rosbook.labs.remote.encode``) as the student's
+    code takes it."""
+    if isinstance(value, dict) and set(value) == {"parameter"}:
+        name, given = value["parameter"]
+        return Parameter(name, value=given)
+    if isinstance(value, list):
+        return [argument(v) for v in value]
+    return value
+
+
 def describe(value: Any) -> dict[str, Any]:
     """What the judge binds a student's name to: a class, a function, another object
     (handles, used through the agent), or a value (its plain data)."""
@@ -203,16 +214,29 @@ class JudgeAgent:
     def get(self, name: str) -> None:
         self._answer(data(student(name)))
 
-    def call(self, name: str, args: list[Any]) -> None:
-        """Call the student's function ``name(*args)`` (the node spinning meanwhile, if it
-        spins in the background)."""
-        self._answer(data(student(name)(*args)))
+    def call(self, name: str, args: list[Any], kwargs: dict[str, Any]) -> None:
+        """Call the student's function ``name(*args, **kwargs)`` (arguments as the judge
+        sent them, ``argument``)."""
+        given = {k: argument(v) for k, v in kwargs.items()}
+        self._answer(data(student(name)(*[argument(a) for a in args], **given)))
 
     def attribute(self, attribute: str) -> None:
-        """The started node's ``attribute`` (an ``AttributeError`` if it has none)."""
+        """The started node's ``attribute`` (an ``AttributeError`` if it has none); a
+        method is said to be one (the judge calls it with ``call_method``)."""
         spinning = self._pause()
         try:
-            self._answer(data(getattr(self.node, attribute)))
+            value = getattr(self.node, attribute)
+            self._answer({"method": True} if callable(value) else data(value))
+        finally:
+            if spinning:
+                self._resume()
+
+    def call_method(self, attribute: str, args: list[Any]) -> None:
+        """Call the started node's method ``attribute`` with ``args`` (plain data, and
+        ``{"parameter": [name, value]}`` for an ``rclpy.parameter.Parameter``)."""
+        spinning = self._pause()
+        try:
+            self._answer(data(getattr(self.node, attribute)(*[argument(a) for a in args])))
         finally:
             if spinning:
                 self._resume()

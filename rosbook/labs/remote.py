@@ -159,6 +159,18 @@ def decode(plain: dict[str, Any]) -> Any:
     return value if type(value) in (bool, int, float, str) else None
 
 
+def encode(value: Any) -> Any:
+    """An argument for the student's code, as JSON the agent rebuilds
+    (``rosbook.labs.agent.argument``): plain data, and rclpy ``Parameter``s."""
+    from rclpy.parameter import Parameter
+
+    if isinstance(value, Parameter):
+        return {"parameter": [value.name, value.value]}
+    if isinstance(value, (list, tuple)):
+        return [encode(v) for v in value]
+    return value
+
+
 # -- the student's names ---------------------------------------------------------------
 
 
@@ -173,9 +185,15 @@ class Student:
     def __repr__(self) -> str:
         return self.name
 
-    def __call__(self, *args: Any) -> Any:
-        """Call the student's function in the kernel; what it returned, as plain data."""
-        return judgement().call_function(self.name, *args)
+    def __call__(self, *args: Any, **kwargs: Any) -> Any:
+        """A class: its node, built in the kernel (``Judgement.start_node``, keyword
+        arguments only). A function: called in the kernel; what it returned, as data."""
+        j = judgement()
+        if self.kind == "class":
+            if args:
+                raise TypeError(f"{self.name}(): pass its arguments by name when graded")
+            return j.start_node(self, sim_time=ros.sim_time, **kwargs)
+        return j.call_function(self.name, *args, **kwargs)
 
 
 def is_student(value: Any) -> bool:
@@ -212,7 +230,24 @@ class RemoteNode:
     def __getattr__(self, attribute: str) -> Any:
         if attribute.startswith("_"):
             raise AttributeError(attribute)
-        return decode(judgement().kernel.call("attribute", attribute))
+        kernel = judgement().kernel
+        try:
+            answer = kernel.call("attribute", attribute)
+        except KernelError as exc:
+            if "AttributeError" in str(exc):
+                raise AttributeError(f"the node has no attribute {attribute!r}") from None
+            raise
+        if answer.get("method"):
+
+            def method(*args: Any) -> Any:
+                try:
+                    said = kernel.call("call_method", attribute, [encode(a) for a in args])
+                except KernelError as exc:
+                    raise CheckFailed(f"{self.get_name()}.{attribute}() raised {exc}") from None
+                return decode(said)
+
+            return method
+        return decode(answer)
 
     def __repr__(self) -> str:
         return f"<node '{self.get_name()}' in the student's kernel>"
@@ -305,11 +340,22 @@ class Judgement:
                 ) from None
             raise
 
-    def call_function(self, name: str, *args: Any) -> Any:
-        """What the student's function ``name(*args)`` returns, called in the kernel."""
-        shown = ", ".join(repr(a) if not isinstance(a, str) else "<URDF>" for a in args)
+    def call_function(self, name: str, *args: Any, **kwargs: Any) -> Any:
+        """What the student's function ``name(*args, **kwargs)`` returns, called in the
+        kernel (arguments: plain data, ``encode``)."""
+        shown = ", ".join(
+            [repr(a) if not isinstance(a, str) or len(a) < 80 else "<text>" for a in args]
+            + [f"{k}={v!r}" for k, v in kwargs.items()]
+        )
         try:
-            return decode(self.kernel.call("call", name, list(args)))
+            return decode(
+                self.kernel.call(
+                    "call",
+                    name,
+                    [encode(a) for a in args],
+                    {k: encode(v) for k, v in kwargs.items()},
+                )
+            )
         except KernelError as exc:
             if "KeyError" in str(exc) and name in str(exc):
                 raise CheckFailed(f"{name} is not defined: run its task's cell") from None
