@@ -1,6 +1,9 @@
 """Deadline-day figures: grading each lab, a class of 60, and resuming a stopped class.
 
 - seconds per submission of each lab: the solution, graded alone;
+- seconds of a student's ``make check`` of each lab's solution (the edit loop), and lab
+  1's against its graded submission in the same run (target: at most 1.4; it was 2.8,
+  22.8 s against 8.2 s, when ``make check`` ran the sandbox's preflight every time);
 - a class of 60 correct lab 1 submissions with ``--workers 2``, end to end (target:
   at most 4 minutes on 2 cores);
 - resuming that class when 40 of the 60 are already graded: 20 notebooks are changed
@@ -15,6 +18,8 @@ quick look; the figures' names say the size measured.
 from __future__ import annotations
 
 import os
+import subprocess
+import sys
 import tempfile
 import time
 from pathlib import Path
@@ -47,7 +52,31 @@ def per_lab(work: Path) -> list[Figure]:
         if row.score != row.max_score:  # the time still counts; say the solution lost points
             print(f"warning: {lab}'s solution scored {row.score:g}/{row.max_score:g}", flush=True)
         figures.append(Figure(f"{lab} seconds per submission", row.seconds, "s"))
+        checked = self_check_seconds(work / f"check-{lab}", lab)
+        figures.append(Figure(f"{lab} make check seconds", checked, "s"))
+        if lab == LAB:
+            figures.append(
+                Figure(
+                    f"{lab} make check vs graded (target <= 1.4)", checked / row.seconds, "ratio"
+                )
+            )
     return figures
+
+
+def self_check_seconds(folder: Path, lab: str) -> float:
+    """Seconds of ``python -m autograder check`` (``make check``) on ``lab``'s solution."""
+    folder.mkdir(parents=True)
+    path = folder / f"{lab}.ipynb"
+    nbformat.write(answered(lab), path)
+    start = time.monotonic()
+    done = subprocess.run(
+        [sys.executable, "-m", "autograder", "check", str(path), "--timeout", "600"],
+        capture_output=True, text=True, check=False,
+    )  # fmt: skip
+    seconds = time.monotonic() - start
+    if done.returncode != 0:  # the time still counts; say what failed
+        print(f"warning: make check of {lab}'s solution failed:\n{done.stdout}", flush=True)
+    return seconds
 
 
 def class_run(work: Path, size: int) -> list[Figure]:

@@ -234,3 +234,20 @@ ATTACKS = {
         "ip = get_ipython()\nip.showtraceback = lambda *a, **k: print('PASS: all checks passed')"
     ),
 }
+
+
+#: Lab 1, whose right and wrong submissions several test files grade.
+LAB01 = "lab01_nodes_topics"
+
+
+def lab01_wrong() -> nbformat.NotebookNode:
+    """Publisher on the wrong topic, doubler that triples, talker with the old Ctrl-C code."""
+    fixes = {}
+    fixes.update(replace_in_answer(LAB01, "counter_publisher", "'counter'", "'count'"))
+    fixes.update(replace_in_answer(LAB01, "doubler", "2 * msg.data", "3 * msg.data"))
+    talker = replace_in_answer(LAB01, "talker_script", "rclpy.try_shutdown()", "rclpy.shutdown()")
+    talker["talker_script"] = talker["talker_script"].replace(
+        "except (KeyboardInterrupt, ExternalShutdownException):", "except KeyboardInterrupt:"
+    )
+    fixes.update(talker)
+    return answered(LAB01, **fixes)

@@ -13,10 +13,12 @@ import pytest
 
 from autograder.check import check, report
 from tests.labtools import (
+    LAB01,
     answered,
     extra_cell,
     feedback,
     grade,
+    lab01_wrong,
     live_marked_processes,
     notebook_path,
     replace_in_answer,
@@ -26,7 +28,7 @@ from tests.labtools import (
 )
 
 CELL_TIMEOUT_S = 30
-LAB = "lab01_nodes_topics"
+LAB = LAB01
 
 OLD_MAIN = """    try:
         rclpy.spin(node)
@@ -37,29 +39,16 @@ OLD_MAIN = """    try:
         rclpy.shutdown()"""
 
 
-def wrong() -> nbformat.NotebookNode:
-    """Publisher on the wrong topic, doubler that triples, talker with the old Ctrl-C code."""
-    fixes = {}
-    fixes.update(replace_in_answer(LAB, "counter_publisher", "'counter'", "'count'"))
-    fixes.update(replace_in_answer(LAB, "doubler", "2 * msg.data", "3 * msg.data"))
-    talker = replace_in_answer(LAB, "talker_script", "rclpy.try_shutdown()", "rclpy.shutdown()")
-    talker["talker_script"] = talker["talker_script"].replace(
-        "except (KeyboardInterrupt, ExternalShutdownException):", "except KeyboardInterrupt:"
-    )
-    fixes.update(talker)
-    return answered(LAB, **fixes)
-
-
 @pytest.fixture(scope="module")
 def graded(
     tmp_path_factory: pytest.TempPathFactory, round_trip: tuple[dict, Path]
 ) -> tuple[dict, Path]:
     root = tmp_path_factory.mktemp("submissions")
     right = answered(LAB)  # the base of "tampered"; "right" is the round trip's row
-    submit(root, "wrong", LAB, wrong())
+    submit(root, "wrong", LAB, lab01_wrong())
     submit(root, "tampered", LAB, with_cell(right, "test_doubler", "pass"))
     cheat = "checks.assert_sequence = lambda *args, **kwargs: None  # make every check pass"
-    submit(root, "meddling", LAB, extra_cell(wrong(), cheat))
+    submit(root, "meddling", LAB, extra_cell(lab01_wrong(), cheat))
     submit(root, "looping", LAB, extra_cell(answered(LAB), "while True:\n    pass"))
     submit(root, "exiting", LAB, extra_cell(answered(LAB), "import os\nos._exit(0)"))
     submit(root, "broken", LAB, '{"cells": [ this is not JSON')
@@ -168,7 +157,7 @@ def test_grading_leaves_no_process_behind(graded) -> None:
 
 def test_self_check_reports_each_visible_check(tmp_path: Path) -> None:
     path = tmp_path / f"{LAB}.ipynb"
-    nbformat.write(wrong(), path)
+    nbformat.write(lab01_wrong(), path)
     run = check(path, cell_timeout=20)
     text = report(path, run)
     passed = {r.grade_id: r.passed for r in run.results}

@@ -55,3 +55,32 @@ def test_untouched_release_scores_zero_without_grader_error(
     row = round_trip[0][("untouched", lab)]
     assert row["status"] == "ok", row
     assert float(row["score"]) == 0, row
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("lab", LABS_NOW)
+def test_make_check_and_grading_agree_on_every_cell_of_the_solution(
+    round_trip: tuple[dict, Path], lab: str, tmp_path: Path
+) -> None:
+    """The student's ``make check`` runs each test cell's visible part in the kernel;
+    grading runs the whole cell in the judge: on the solution both pass every cell."""
+    import subprocess
+    import sys
+
+    from autograder.config import ROOT
+    from autograder.feedback import is_test_cell
+    from tests.labtools import answered
+
+    path = tmp_path / f"{lab}.ipynb"
+    nbformat.write(answered(lab), path)
+    done = subprocess.run(
+        [sys.executable, "-m", "autograder", "check", str(path), "--timeout", "600"],
+        capture_output=True, text=True, cwd=ROOT, timeout=1800, check=False,
+    )  # fmt: skip
+    cells = [line.split()[1] for line in done.stdout.splitlines() if line.startswith("  PASS")]
+    failed = [line for line in done.stdout.splitlines() if line.startswith("  FAIL")]
+    source = nbformat.read(ROOT / "solutions" / lab / f"{lab}.ipynb", as_version=4)
+    tests = [c.metadata.nbgrader["grade_id"] for c in source.cells if is_test_cell(c)]
+    assert (done.returncode, failed, cells) == (0, [], tests), done.stdout + done.stderr
+    row = round_trip[0][("right", lab)]
+    assert float(row["score"]) == float(row["max_score"]), row  # every cell, in the judge

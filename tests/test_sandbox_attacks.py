@@ -18,15 +18,18 @@ import pytest
 
 from autograder.config import ROOT, SOLUTIONS
 from tests.labtools import (
+    LAB01,
     answered,
     extra_cell,
     feedback,
     grade,
+    lab01_wrong,
     live_marked_processes,
     notebook_path,
     submit,
 )
-from tests.test_lab01 import LAB, wrong
+
+LAB = LAB01
 
 pytestmark = pytest.mark.slow
 
@@ -116,7 +119,7 @@ def graded(tmp_path_factory: pytest.TempPathFactory):
             cell.source += f"\n# {VICTIM_MARK}"
     submit(root, "victim", LAB, victim)
     (root / "victim" / LAB / "notes.txt").write_text("keep me")
-    submit(root, "honest_wrong", LAB, wrong())
+    submit(root, "honest_wrong", LAB, lab01_wrong())
     submit(root, "duplicated_cell", LAB, duplicated_cell())
     for name, source in attacks(root, out).items():
         submit(root, name, LAB, extra_cell(nbformat.read(notebook_path(LAB), 4), source))

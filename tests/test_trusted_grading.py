@@ -25,6 +25,7 @@ from autograder.config import ROOT
 from tests.labtools import (
     ATTACKS,
     HISTORY_PRINTER,
+    LAB01,
     NEUTER,
     SOURCE_PRINTER,
     answered,
@@ -32,13 +33,15 @@ from tests.labtools import (
     feedback,
     grade_id,
     hidden_only_lines,
+    lab01_wrong,
     output_text,
     replace_in_answer,
     submit,
 )
-from tests.test_lab01 import LAB, wrong
 
 #: Each case grades attack notebooks with the documented command: out of `make test-fast`.
+LAB = LAB01
+
 pytestmark = pytest.mark.slow
 
 #: The attack that ships a package: the submission folder holds its own `rosbook`
@@ -69,7 +72,7 @@ def duplicated_cell() -> nbformat.NotebookNode:
 def graded(tmp_path_factory: pytest.TempPathFactory) -> tuple[dict[str, dict[str, str]], Path]:
     root = tmp_path_factory.mktemp("submissions")
     submit(root, "right", LAB, answered(LAB))
-    submit(root, "wrong", LAB, wrong())
+    submit(root, "wrong", LAB, lab01_wrong())
     submit(root, "duplicated_cell", LAB, duplicated_cell())
     # rclpy.spin() left at the end of a solution cell: a timer wakes the spin, so the
     # interrupt stops it; a subscription alone never wakes it, and the kernel stays busy.
@@ -85,11 +88,11 @@ def graded(tmp_path_factory: pytest.TempPathFactory) -> tuple[dict[str, dict[str
     )
     submit(root, "spin_stuck_in_cell", LAB, answered(LAB, **stuck))
     for name, source in ATTACKS.items():
-        submit(root, name, LAB, extra_cell(wrong(), source))
+        submit(root, name, LAB, extra_cell(lab01_wrong(), source))
     reader = extra_cell(answered(LAB), SOURCE_PRINTER)
     reader.cells.append(nbformat.v4.new_code_cell(HISTORY_PRINTER))
     submit(root, "hidden_source_reader", LAB, reader)
-    submit(root, SHIPPED, LAB, wrong())
+    submit(root, SHIPPED, LAB, lab01_wrong())
     ship_rosbook(root)
     out = tmp_path_factory.mktemp("out")
     done = subprocess.run(
