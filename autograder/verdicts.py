@@ -66,6 +66,8 @@ class Judging:
     #: Test cells whose run in the kernel calls the lab's checks (deferred there): only
     #: such a cell's pass in the kernel is a forged one.
     deferring: set[str] = field(default_factory=set)
+    #: Test cells whose run in the kernel ended without an error (a pass, there).
+    kernel_passed: set[str] = field(default_factory=set)
 
     def judges(self, grade_id: str) -> bool:
         """Whether the judge decides test cell ``grade_id``."""
@@ -179,6 +181,7 @@ class JudgedExecute(CappedExecute):  # type: ignore[misc]
             return super().preprocess_cell(cell, resources, index)  # type: ignore[no-any-return]
         grade_id = cell.get("metadata", {}).get("nbgrader", {}).get("grade_id")
         sent = sent_to_kernel(cell)
+        busy = self.busy_with is not None
         if not _current.every_cell or calls_checks(sent.source, setup_cells(self.nb)):
             _current.deferring.add(grade_id)
         if not _current.judges(grade_id):
@@ -219,7 +222,11 @@ class JudgedExecute(CappedExecute):  # type: ignore[misc]
             defer_next_cell(self.kc)
         sent, resources = super().preprocess_cell(sent, resources, index)
         ran = sent.get("outputs", [])
-        if _current.judges(grade_id) and any(map(is_deferral, ran)):
+        if sent.source.strip() and not any(o.get("output_type") == "error" for o in ran):
+            _current.kernel_passed.add(grade_id)
+        if _current.judges(grade_id) and busy:  # not run, in the kernel nor in the judge
+            outputs = list(ran)
+        elif _current.judges(grade_id) and any(map(is_deferral, ran)):
             outputs = []
             for output in ran:
                 outputs += [*shown, verdict_output(verdict)] if is_deferral(output) else [output]
@@ -317,7 +324,7 @@ def apply_verdicts(
                 judged.timed_out.append(grade.name)
             elif verdict is None or verdict.broken:
                 judged.broken.append(grade.name)
-            elif not passed and (grade.auto_score or 0) > 0 and grade.name in run.deferring:
+            elif not passed and grade.name in run.deferring & run.kernel_passed:
                 judged.claimed.append(grade.name)
             if not passed:
                 judged.messages[grade.name] = (
