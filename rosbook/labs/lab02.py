@@ -112,7 +112,7 @@ def _made_in_kernel(
     callback)``, the callback keeping what it gets) run in the kernel on a fresh node
     ``node_name`` of the agent's; what it returned (type, repr) and the node's endpoints,
     as the kernel says them (which only shortens a failure: a pass needs the traffic)."""
-    from rosbook.labs.lockstep import require_endpoint  # the judge's only
+    from rosbook.labs.lockstep import require_endpoint  # judge-side (lab 3's clock too)
 
     try:
         made: dict[str, Any] = j.kernel.call("with_node", function.name, node_name, [], collect)
@@ -129,7 +129,7 @@ def _made_in_kernel(
     return made
 
 
-def endpoint_qos(node_name: str, topic: str, kind: str) -> QoSProfile:
+def _endpoint_qos(node_name: str, topic: str, kind: str) -> QoSProfile:
     """The QoS of ``node_name``'s ``kind`` endpoint ("publisher" or "subscription") on
     ``topic``, as DDS discovery tells this process (never as the node's own process says)."""
     watcher = ros_node("judge_qos_watcher")
@@ -170,7 +170,7 @@ def assert_late_joiner_gets_last(
     if is_student(make_map_publisher):
         j = judgement()
         made = _made_in_kernel(j, make_map_publisher, node_name, "make_map_publisher(node)")
-        offered = endpoint_qos(node_name, "/map", "publisher")
+        offered = _endpoint_qos(node_name, "/map", "publisher")
         if offered.depth == 0 and type(made.get("depth")) is int:  # discovery does not
             offered.depth = made["depth"]  # tell the depth: the kernel's, for the message
         j.kernel.call("publish_strings", [str(text) for text in maps])
@@ -292,7 +292,7 @@ def _scans_in_kernel(
     last one was taken in the kernel (in lockstep, until one is lost: a best-effort
     stream may drop, then the rest go without waiting), its ranges shifted by a nonce."""
     _made_in_kernel(j, function, node_name, "make_scan_subscription(node, callback)", True)
-    asked = endpoint_qos(node_name, "/scan", "subscription")
+    asked = _endpoint_qos(node_name, "/scan", "subscription")
     base = random.SystemRandom().randrange(1, 4096) / 8  # exact in float32
     received: list[Any] = []
     with sensor_publisher(asked, sensor_qos, guard=MATCH_GUARD_S) as publisher:
