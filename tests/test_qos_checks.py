@@ -76,6 +76,26 @@ def test_model_check_names_a_missing_drain() -> None:
         qos_checks.assert_model_matches(no_drain, [(2, 1.7, 3, 6)])
 
 
+def test_a_model_the_kernel_could_only_describe_is_named_by_its_type() -> None:
+    """Graded, what the student's function returned crosses as plain data: a value that
+    is not (a generator) arrives as its type and repr, and is named as a local run names
+    it."""
+    from rosbook.labs.remote import Unreadable
+
+    def generator(hz, work, depth, duration):
+        return (k for k in (1, 2))
+
+    def described(hz, work, depth, duration):
+        return Unreadable("generator", "<generator object <genexpr> at 0x7f>")
+
+    said = []
+    for predict in (generator, described):
+        with pytest.raises(AssertionError) as failed:
+            qos_checks.assert_model_matches(predict, [(2, 1.7, 3, 6)])
+        said.append(str(failed.value))
+    assert said == ["predict_processed(2, 1.7, 3, 6) returned generator, not a list of ints"] * 2
+
+
 def test_compatibility_check_agrees_with_rclpy_on_every_profile_pair() -> None:
     profiles = qos_checks.qos_profiles()
     pairs = [(p, s) for p in profiles for s in profiles]

@@ -98,3 +98,33 @@ def test_a_students_urdf_is_text_never_a_path_to_a_file(tmp_path: Path) -> None:
     named.write_text(DIFF_DRIVE_URDF.read_text())
     with pytest.raises(AssertionError, match="must be a string holding your URDF"):
         urdf_checks.load_student_urdf(str(named))
+
+
+def test_an_arm_check_names_numpy_angles_as_plain_numbers() -> None:
+    """The hidden angles are numpy numbers: the message (and the student's function,
+    also when it is a handle into the student's kernel) gets Python floats."""
+    import numpy as np
+
+    seen: list[tuple[type, ...]] = []
+
+    def wrong(q1: float, q2: float) -> tuple[float, float, float]:
+        seen.append((type(q1), type(q2)))
+        return (0.0, 0.0, 0.0)
+
+    with pytest.raises(AssertionError) as failed:
+        urdf_checks.assert_position("end_effector_position", wrong, tuple(np.array([0.3, 1.1])),
+                                    (0.8, 0.0, 0.1))  # fmt: skip
+    assert str(failed.value).startswith("end_effector_position(0.3, 1.1): expected (0.8, 0, 0.1)")
+    assert seen == [(float, float)]
+
+
+def test_when_graded_the_robots_picture_is_the_test_cells_output(tmp_path: Path) -> None:
+    """In the judge, ``show_robot`` puts the picture of the URDF it checked into the
+    verdict's outputs (the feedback shows it), not onto the judge's stdout."""
+    from rosbook.labs import remote
+    from rosbook.robots import urdf
+
+    j = remote.Judgement(kernel=None, folder=tmp_path)  # type: ignore[arg-type] (never asked)
+    with remote.judging_cell(j):
+        urdf_checks.show_robot(urdf.load(GOOD), "your DIFF_DRIVE_URDF")
+    assert [sorted(o["data"]) for o in j.outputs] == [["image/png", "text/plain"]]

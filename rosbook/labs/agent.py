@@ -116,7 +116,7 @@ def stamp_ns(time_msg: Any) -> int:
 
 
 def qos_profile(fields: dict[str, Any]) -> QoSProfile:
-    """A profile rebuilt from the fields the judge sent (``judge_lab02.qos_fields``)."""
+    """A profile rebuilt from the fields the judge sent (``rosbook.labs.lab02.qos_fields``)."""
     return QoSProfile(
         history=HistoryPolicy(fields["history"]),
         depth=fields["depth"],
@@ -537,7 +537,7 @@ class JudgeAgent:
         answers = []
         for pub, sub in pairs:
             try:
-                answers.append(plain(student(function)(qos_profile(pub), qos_profile(sub))))
+                answers.append(data(student(function)(qos_profile(pub), qos_profile(sub))))
             except Exception as exc:  # noqa: BLE001 - the student's function: said
                 answers.append({"raised": type(exc).__name__, "message": str(exc)[:300]})
         self._answer(answers)

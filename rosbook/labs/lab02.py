@@ -4,11 +4,21 @@ their KEEP_LAST model against the reference, their compatibility rules against r
 Every failure is a ``CheckFailed`` (an ``AssertionError``) that names the mistake (a
 VOLATILE publisher for a late joiner, a RELIABLE subscription to a sensor stream, a queue
 one message too deep).
+
+When graded, the student's functions are handles into the student's kernel
+(``rosbook.labs.remote``) and each check takes its graded branch: the publisher or
+subscription is made there, on a node of the judge's agent, and the judge is its peer on
+the sandbox's network (its late joiner subscribes to /map, its lidar publishes on /scan,
+with ranges shifted by a nonce the kernel cannot know before they arrive); the QoS each
+endpoint offers or asks for is read from the DDS graph, never from the kernel. The model
+and compatibility functions are called there with the cell's inputs, and what they
+returned is compared here, as plain data.
 """
 
 from __future__ import annotations
 
 import itertools
+import random
 from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
 from typing import Any
@@ -41,7 +51,24 @@ from rosbook.labs.probes import (
     node_publishes,
     node_subscribes,
 )
+from rosbook.labs.remote import (
+    EVENT_GUARD_S,
+    Judgement,
+    JudgeTimeout,
+    KernelError,
+    Student,
+    Unreadable,
+    decode,
+    is_student,
+    judgement,
+    ros_node,
+)
 from rosbook.runtime.session import ros
+
+#: When graded, the guard of a wait for a match with the student's node in its kernel
+#: (or the event that says it never comes): generous, the wait ends as soon as either
+#: happens.
+MATCH_GUARD_S = 3 * EVENT_GUARD_S
 
 #: How a typical late joiner (a map display, say) subscribes.
 LATE_JOINER_QOS = QoSProfile(
@@ -78,6 +105,53 @@ def assert_returned(type_name: str, text: str, kind: type, call: str) -> None:
         )
 
 
+def _made_in_kernel(
+    j: Judgement, function: Student, node_name: str, call: str, collect: bool = False
+) -> dict[str, Any]:
+    """Graded: the student's ``function(node)`` (with ``collect``: ``function(node,
+    callback)``, the callback keeping what it gets) run in the kernel on a fresh node
+    ``node_name`` of the agent's; what it returned (type, repr) and the node's endpoints,
+    as the kernel says them (which only shortens a failure: a pass needs the traffic)."""
+    from rosbook.labs.lockstep import require_endpoint  # judge-side (lab 3's clock too)
+
+    try:
+        made: dict[str, Any] = j.kernel.call("with_node", function.name, node_name, [], collect)
+    except KernelError as exc:  # the student's function raised
+        if "NotImplementedError" in str(exc):
+            raise CheckFailed(f"{call}: this task is not done yet (NotImplementedError)") from None
+        raise CheckFailed(f"{call} raised {exc}") from None
+    kind, topic, msg_type = (
+        (Subscription, "/scan", LaserScan) if collect else (Publisher, "/map", String)
+    )
+    assert_returned(str(made["type"]), str(made["repr"]), kind, call)
+    require_endpoint(made, topic, msg_type, kind.__name__.lower())
+    j.wait_on_graph(node_name, topic, kind.__name__.lower())
+    return made
+
+
+def _endpoint_qos(node_name: str, topic: str, kind: str) -> QoSProfile:
+    """The QoS of ``node_name``'s ``kind`` endpoint ("publisher" or "subscription") on
+    ``topic``, as DDS discovery tells this process (never as the node's own process says)."""
+    watcher = ros_node("judge_qos_watcher")
+    lookup = (
+        watcher.get_publishers_info_by_topic
+        if kind == "publisher"
+        else watcher.get_subscriptions_info_by_topic
+    )
+    found: list[Any] = []
+
+    def seen() -> bool:
+        found[:] = [e for e in lookup(topic) if e.node_name == node_name]
+        return bool(found)
+
+    try:
+        if not ros.spin_until(seen, watcher, timeout=EVENT_GUARD_S):
+            raise JudgeTimeout(f"node '{node_name}' has no {kind} on {topic} on the ROS graph")
+        return found[0].qos_profile  # type: ignore[no-any-return]
+    finally:
+        ros.remove(watcher)
+
+
 # -- map_publisher ----------------------------------------------------------------------
 
 
@@ -89,9 +163,18 @@ def assert_late_joiner_gets_last(
 ) -> list[str]:
     """Publish ``maps`` with nobody listening, then subscribe: the last must still arrive.
 
-    Returns what the late joiner received.
+    Returns what the late joiner received. Graded (``make_map_publisher`` a handle): the
+    publisher is made and publishes in the student's kernel.
     """
     ros.reset()
+    if is_student(make_map_publisher):
+        j = judgement()
+        made = _made_in_kernel(j, make_map_publisher, node_name, "make_map_publisher(node)")
+        offered = _endpoint_qos(node_name, "/map", "publisher")
+        if offered.depth == 0 and type(made.get("depth")) is int:  # discovery does not
+            offered.depth = made["depth"]  # tell the depth: the kernel's, for the message
+        j.kernel.call("publish_strings", [str(text) for text in maps])
+        return late_joiner_receives(maps, offered, joiner_qos, guard=MATCH_GUARD_S)
     node = Node(node_name)
     publisher = make_node(make_map_publisher, node)
     _returned(publisher, Publisher, "make_map_publisher(node)")
@@ -179,8 +262,15 @@ def assert_receives_sensor_data(
     node_name: str = "scan_listener",
     sensor_qos: QoSProfile = qos_profile_sensor_data,
 ) -> list[LaserScan]:
-    """A publisher with ``sensor_qos`` sends ``count`` scans; the callback must get them."""
+    """A publisher with ``sensor_qos`` sends ``count`` scans; the callback must get them.
+    Graded (``make_scan_subscription`` a handle): the subscription is made in the
+    student's kernel (``_scans_in_kernel``); what it got is returned as ``scan_seen``
+    pairs."""
     ros.reset()
+    if is_student(make_scan_subscription):
+        return _scans_in_kernel(  # type: ignore[return-value]
+            judgement(), make_scan_subscription, count, node_name, sensor_qos
+        )
     node = Node(node_name)
     got: list[LaserScan] = []
     subscription = make_node(make_scan_subscription, node, got.append)
@@ -193,6 +283,32 @@ def assert_receives_sensor_data(
         ros.spin_until(lambda: len(got) >= count, timeout=1.0)
     assert_scans_received([scan_seen(m) for m in got], count)
     return got
+
+
+def _scans_in_kernel(
+    j: Judgement, function: Student, count: int, node_name: str, sensor_qos: QoSProfile
+) -> list[tuple[str, list[float]]]:
+    """Graded ``assert_receives_sensor_data``: the judge's lidar sends each scan once the
+    last one was taken in the kernel (in lockstep, until one is lost: a best-effort
+    stream may drop, then the rest go without waiting), its ranges shifted by a nonce."""
+    _made_in_kernel(j, function, node_name, "make_scan_subscription(node, callback)", True)
+    asked = _endpoint_qos(node_name, "/scan", "subscription")
+    base = random.SystemRandom().randrange(1, 4096) / 8  # exact in float32
+    received: list[Any] = []
+    with sensor_publisher(asked, sensor_qos, guard=MATCH_GUARD_S) as publisher:
+        if not j.kernel.call("scan_matched", EVENT_GUARD_S):
+            raise JudgeTimeout(f"node '{node_name}' did not meet the judge's lidar")
+        guard = EVENT_GUARD_S
+        for index in range(count):
+            publisher.publish(make_scan(index, base))
+            received = j.kernel.call("scans_until", index + 1, guard)
+            if len(received) <= index:
+                guard = 0.1
+        if len(received) < count:  # stragglers, after a loss
+            received = j.kernel.call("scans_until", count, 1.0)
+    seen = [(str(kind), [float(r) for r in ranges]) for kind, ranges in received]
+    assert_scans_received(seen, count, base)
+    return seen
 
 
 @contextmanager
@@ -285,7 +401,8 @@ def assert_model_matches(
     predict: Callable[[float, float, int, float], Sequence[int]],
     cases: Sequence[tuple[float, float, int, float]],
 ) -> None:
-    """``predict`` must give the reference answer on every case; explain the first miss."""
+    """``predict`` must give the reference answer on every case; explain the first miss.
+    (Graded, ``predict`` is a handle: each case is called in the student's kernel.)"""
     for hz, work, depth, duration in cases:
         call = f"predict_processed({hz!r}, {work!r}, {depth!r}, {duration!r})"
         try:
@@ -295,7 +412,8 @@ def assert_model_matches(
         except Exception as exc:  # the student's function failed: say where
             raise CheckFailed(f"{call} raised {type(exc).__name__}: {exc}") from None
         if not isinstance(got, (list, tuple)):
-            raise CheckFailed(f"{call} returned {type(got).__name__}, not a list of ints")
+            kind = got.type_name if isinstance(got, Unreadable) else type(got).__name__
+            raise CheckFailed(f"{call} returned {kind}, not a list of ints")
         got = list(got)
         want = predict_processed(hz, work, depth, duration)
         if got == want:
@@ -360,7 +478,11 @@ def assert_incompatibilities_match(
     incompatible: Callable[[QoSProfile, QoSProfile], Any],
     pairs: Sequence[tuple[QoSProfile, QoSProfile]],
 ) -> None:
-    """``incompatible(pub, sub)`` must name exactly the policies rclpy's check rejects."""
+    """``incompatible(pub, sub)`` must name exactly the policies rclpy's check rejects.
+    (Graded, ``incompatible`` is a handle: every pair is called in the student's kernel
+    at once, ``_incompatible_in_kernel``.)"""
+    if is_student(incompatible):
+        incompatible = _incompatible_in_kernel(judgement(), incompatible, pairs)
     for pub, sub in pairs:
         call = f"incompatible_policies(publisher: {describe(pub)}; subscription: {describe(sub)})"
         try:
@@ -388,6 +510,40 @@ def assert_incompatibilities_match(
                 f"{call} returned {sorted(got)}; rclpy's own check (qos_check_compatible) "
                 f"says {sorted(want)}: " + "; ".join(detail) + "."
             )
+
+
+def qos_fields(qos: QoSProfile) -> dict[str, Any]:
+    """Every field of ``qos`` as plain data, which the judge's agent rebuilds the profile
+    from in the student's kernel (``rosbook.labs.agent.qos_profile``)."""
+    return {
+        "history": int(qos.history),
+        "depth": qos.depth,
+        "reliability": int(qos.reliability),
+        "durability": int(qos.durability),
+        "deadline": qos.deadline.nanoseconds,
+        "lifespan": qos.lifespan.nanoseconds,
+        "liveliness": int(qos.liveliness),
+        "lease": qos.liveliness_lease_duration.nanoseconds,
+        "avoid": qos.avoid_ros_namespace_conventions,
+    }
+
+
+def _incompatible_in_kernel(
+    j: Judgement, function: Student, pairs: Sequence[tuple[QoSProfile, QoSProfile]]
+) -> Callable[[QoSProfile, QoSProfile], Any]:
+    """The student's ``function`` called in the kernel on every pair of ``pairs`` (the
+    profiles sent as ``qos_fields``); a stand-in that gives its answers in turn, as plain
+    data, and raises again (by its type's name and message) what it raised."""
+    fields = [[qos_fields(pub), qos_fields(sub)] for pub, sub in pairs]
+    answers = iter(j.kernel.call("qos_pairs", function.name, fields))
+
+    def answered(pub: QoSProfile, sub: QoSProfile) -> Any:
+        answer = next(answers)
+        if "raised" in answer:
+            raise type(str(answer["raised"]), (Exception,), {})(str(answer["message"]))
+        return decode(answer)
+
+    return answered
 
 
 deferrable(globals())
