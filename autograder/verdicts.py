@@ -68,6 +68,8 @@ class Judging:
     deferring: set[str] = field(default_factory=set)
     #: Test cells whose run in the kernel ended without an error (a pass, there).
     kernel_passed: set[str] = field(default_factory=set)
+    #: The test cells met so far that the judge decides.
+    cells: set[str] = field(default_factory=set)
 
     def judges(self, grade_id: str) -> bool:
         """Whether the judge decides test cell ``grade_id``."""
@@ -182,6 +184,8 @@ class JudgedExecute(CappedExecute):  # type: ignore[misc]
         grade_id = cell.get("metadata", {}).get("nbgrader", {}).get("grade_id")
         sent = sent_to_kernel(cell)
         busy = self.busy_with is not None
+        if _current.judges(grade_id):
+            _current.cells.add(grade_id)
         if not _current.every_cell or calls_checks(sent.source, setup_cells(self.nb)):
             _current.deferring.add(grade_id)
         if not _current.judges(grade_id):

@@ -245,8 +245,8 @@ def grade(job: Job) -> Result:
     )
     # A judged test cell's run in the kernel is only a hint for the student: when it is
     # slow, the judge's verdict still stands, and the machine's speed decides nothing.
-    slow = [c for c in timed_out_cells(autograded) if c not in run.checks]
-    not_run = [c for c in timed_out_cells(autograded, kernels.NOT_RUN) if c not in run.checks]
+    slow = [c for c in timed_out_cells(autograded) if c not in run.cells]
+    not_run = [c for c in timed_out_cells(autograded, kernels.NOT_RUN) if c not in run.cells]
 
     started = time.monotonic()
     feedback = grader.generate_feedback(job.assignment_id, job.student_id, force=True)

@@ -165,7 +165,9 @@ def encode(value: Any) -> Any:
     from rclpy.parameter import Parameter
 
     if isinstance(value, Parameter):
-        return {"parameter": [value.name, value.value]}
+        return {"parameter": [value.name, encode(value.value)]}
+    if hasattr(value, "dtype") and hasattr(value, "tolist"):  # a numpy number or array
+        return value.tolist()
     if isinstance(value, (list, tuple)):
         return [encode(v) for v in value]
     return value
