@@ -920,10 +920,10 @@ def assert_graph(
 
 # -- graded: what the judge starts as the student, and judges from its own nodes -------
 
-#: The judge keeps one participant from a test cell's start to its end (read by
-#: ``autograder.judge``): its watchers and probes come and go while the student's
-#: nodes start and stop, and a participant destroyed then can hang (Fast DDS's teardown
-#: hang, ``autograder/judge.py``).
+#: The judge keeps one participant from the first test cell it runs to its own end
+#: (read by ``autograder.judge``): its watchers and probes come and go while the
+#: student's nodes start and stop, and a participant destroyed then can hang (Fast
+#: DDS's teardown hang, ``autograder/judge.py``).
 HOLD_PARTICIPANT = True
 
 #: Hang guards (wall clock): a colcon build; programs started in the sandbox showing up
