@@ -26,7 +26,8 @@ code runs (``Judgement.wrap``), never in the judge:
 A build's report comes from a process that also ran the student's ``setup.py``:
 forging it would take a ``setup.py`` written to write into its parent's output. What
 the points mostly rest on (the nodes' traffic, the graph, exit codes) the judge sees
-itself. The expected values (executables, dependencies, rates) are the test cells'.
+itself. What is expected (executables, dependencies, rates) is what the test cell
+passes, the contract's constants below when it passes nothing: never the judge's.
 """
 
 from __future__ import annotations
