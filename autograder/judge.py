@@ -34,9 +34,11 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
+import nbformat
 from nbformat import NotebookNode
 
 from autograder import sandbox
+from autograder.config import SOLUTIONS
 from autograder.feedback import is_test_cell
 from rosbook.labs import remote
 from rosbook.labs.probes import (
@@ -66,7 +68,6 @@ from rosbook.runtime.session import ros
 JUDGED_LABS = {
     "lab03_services_actions": "autograder.judge_lab03",
     "lab05_diff_drive": "autograder.judge_lab05",
-    "lab06_launch_system": "autograder.judge_lab06",
 }
 
 
@@ -131,13 +132,17 @@ def holds_participant(assignment_id: str) -> bool:
 
 
 def shared_env(assignment_id: str, folder: Path) -> dict[str, str]:
-    """What the judge of ``assignment_id`` makes once for a whole grading run (its
-    module's ``share(folder)``: lab 6's reference build), as the environment that gives
+    """What the judge of ``assignment_id`` makes once for a whole grading run (the
+    ``share(folder)`` of its judge module, or of the checks module its notebook's setup
+    imports: lab 6's reference build), as the environment that gives
     it, read-only, to every sandbox of the run (``sandbox.SHARED_ENV``); empty for a lab
     that shares nothing, or whose share failed (each submission then makes its own, and
     the class is graded as before). The grader makes it, never a student's code."""
     module = JUDGED_LABS.get(assignment_id)
-    share = getattr(importlib.import_module(module), "share", None) if module else None
+    if module is not None:
+        share = getattr(importlib.import_module(module), "share", None)
+    else:
+        share = lab_module_hook(source_setup(assignment_id), "share")
     if share is None:
         return {}
     folder.mkdir(parents=True, exist_ok=True)
@@ -476,15 +481,33 @@ def student_wrap(sandbox_pid: int | None, folder: Path) -> Callable[[list[str]],
 
 
 def lab_module_hook(setup: list[str], name: str) -> Any:
-    """``name`` of the lab's checks module (a ``rosbook.labs`` module the setup binds),
-    or None: a lab's own settings for its judge (``HOLD_PARTICIPANT``, ``share``)."""
-    import types
-
-    for value in setup_namespace(setup).values():
-        if isinstance(value, types.ModuleType) and value.__name__.startswith("rosbook.labs."):
-            if hasattr(value, name):
-                return getattr(value, name)
+    """``name`` of the lab's checks module (a ``rosbook.labs`` module the setup imports),
+    or None: a lab's own settings for its judge (``HOLD_PARTICIPANT``, ``share``). The
+    setup is read, not run: the grader asks before any kernel runs (``shared_env``)."""
+    for source in setup:
+        try:
+            tree = ast.parse(source)
+        except SyntaxError:
+            continue
+        for node in ast.walk(tree):
+            if isinstance(node, ast.ImportFrom) and node.module == "rosbook.labs":
+                modules = [f"rosbook.labs.{a.name}" for a in node.names]
+            elif isinstance(node, ast.Import):
+                modules = [a.name for a in node.names if a.name.startswith("rosbook.labs.")]
+            else:
+                continue
+            for module in modules:
+                value = getattr(importlib.import_module(module), name, None)
+                if value is not None:
+                    return value
     return None
+
+
+def source_setup(assignment_id: str) -> list[str]:
+    """The setup cells of the instructor's source notebook of ``assignment_id``
+    (``solutions/``); none for a lab that has none there."""
+    path = SOLUTIONS / assignment_id / f"{assignment_id}.ipynb"
+    return setup_cells(nbformat.read(path, as_version=4)) if path.is_file() else []
 
 
 def run_cell(j: remote.Judgement, source: str, setup: list[str]) -> None:
@@ -546,6 +569,10 @@ def judge_cell(request: dict[str, Any], kernel: Kernel) -> Verdict:
         tail = "\n".join(traceback.format_exc().strip().splitlines()[-4:])
         return Verdict(grade_id, False, f"the judge failed on this check:\n{tail}", broken=True)
     finally:
+        try:
+            j.ends.close()
+        except Exception as exc:  # noqa: BLE001 - after the verdict: said, never raised
+            print(f"[judge] {grade_id}: undoing the cell's work failed: {exc}", flush=True)
         ros.reset()
         if not held:
             ros.hold_participant(False)

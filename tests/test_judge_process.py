@@ -12,7 +12,7 @@ import base64
 import json
 import re
 import threading
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
@@ -374,8 +374,15 @@ def judged_kernel(code: str, cwd: Path | None = None) -> Iterator[judge.Kernel]:
         km.shutdown_kernel(now=True)
 
 
-def judge_check(kernel: judge.Kernel, assignment: str, check: str, folder: Path) -> judge.Verdict:
-    """The judge's verdict on ``check`` of ``assignment`` for the student in ``kernel``."""
+def judge_check(
+    kernel: judge.Kernel,
+    assignment: str,
+    check: str,
+    folder: Path,
+    edit: Callable[[str], str] = str,
+) -> judge.Verdict:
+    """The judge's verdict on ``check`` of ``assignment`` for the student in ``kernel``
+    (``edit``: how the instructor changed the test cell's source, if they did)."""
     source = nbformat.read(notebook_path(assignment, released=False), as_version=4)
     cell = next(c for c in source.cells if grade_id(c) == check)
     request = {
@@ -383,7 +390,7 @@ def judge_check(kernel: judge.Kernel, assignment: str, check: str, folder: Path)
         "assignment": assignment,
         "connection_file": kernel.client.connection_file,
         "folder": str(folder),
-        "source": cell.source,
+        "source": edit(cell.source),
         "setup": judge.setup_cells(source),
     }
     return judge.judge_one(request, {kernel.client.connection_file: kernel})
@@ -613,6 +620,36 @@ def test_lab6s_judge_keeps_one_participant_while_the_students_nodes_come_and_go(
         assert keepers[1] is first, "a participant was made again"
     finally:
         session.hold_participant(False)
+
+
+def test_lab6s_manifest_is_judged_by_the_cells_own_hidden_checks(
+    session: Session, tmp_path: Path
+) -> None:
+    """The judge builds the student's manifest as the student and runs the test cell as
+    the source notebook holds it: the solution passes, and a hidden check the
+    instructor edited (one more dependency asked for) fails it with the cell's message."""
+    lab6 = "lab06_launch_system"
+    notebook = answered(lab6)
+    code = "\n".join(
+        c.source for c in notebook.cells if grade_id(c) in ("setup", "package_manifest")
+    )
+    hidden = "checks.assert_dependencies(built)"
+    more = "checks.assert_dependencies(built, ['rclpy', 'std_msgs', 'geometry_msgs'])"
+    (tmp_path / "home").mkdir()
+    try:
+        with judged_kernel(code, tmp_path / "home") as kernel:
+            right = judge_check(kernel, lab6, "test_package_manifest", tmp_path)
+            assert right.passed, right
+            edited = judge_check(
+                kernel, lab6, "test_package_manifest", tmp_path, lambda s: s.replace(hidden, more)
+            )
+    finally:
+        session.hold_participant(False)
+    assert (edited.passed, edited.timeout, edited.broken) == (False, False, False), edited
+    assert edited.message == (
+        "package.xml does not declare geometry_msgs as a run-time dependency (the nodes "
+        "import them): add <depend>geometry_msgs</depend>"
+    )
 
 
 def test_a_judge_failure_passes_through_the_labs_checks_as_it_was_said() -> None:

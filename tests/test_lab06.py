@@ -102,7 +102,7 @@ def test_missing_namespace_is_named_and_the_rest_scores(graded: tuple[dict, Path
 
 def test_the_class_launches_against_one_reference_build(graded: tuple[dict, Path]) -> None:
     """The reference robot_talk every two-robot launch runs is built once for the grading
-    run (``judge_lab06.share``) and shared read-only, not built again per submission."""
+    run (``lab06.share``) and shared read-only, not built again per submission."""
     _, out = graded
     used = set()
     for log in (out / "logs").glob(f"*/{LAB}.log"):  # the submissions this class graded
@@ -146,8 +146,7 @@ def test_a_reference_node_that_stops_uncleanly_gets_its_launch_run_again() -> No
     main shut it down too; seen once in a stress run: a listener's exit code 1) has the
     launch run once more, and a second unclean stop is the verdict, with what the node
     printed last."""
-    from autograder.judge_lab06 import raced
-    from rosbook.labs.lab06 import assert_stopped_cleanly
+    from rosbook.labs.lab06 import assert_stopped_cleanly, raced
     from rosbook.labs.probes import CheckFailed
 
     race = [
@@ -176,9 +175,8 @@ def test_a_program_still_running_after_ctrl_c_is_a_timeout_that_shows_its_last_l
     in the message, so the log shows where it stood."""
     import time
 
-    from autograder.judge import JudgeTimeout
-    from autograder.judge_lab06 import STOP_TAIL, Program, StopTimeout
-    from rosbook.labs.probes import run_program
+    from rosbook.labs.lab06 import STOP_TAIL, Program, StopTimeout
+    from rosbook.labs.probes import TimedOut, run_program
 
     stubborn = (
         "import signal, sys, time\n"
@@ -194,7 +192,7 @@ def test_a_program_still_running_after_ctrl_c_is_a_timeout_that_shows_its_last_l
             time.sleep(0.01)
         with pytest.raises(StopTimeout) as raised:
             program.stop("`stubborn`", guard=1.0)
-    assert isinstance(raised.value, JudgeTimeout)
+    assert isinstance(raised.value, TimedOut)  # the judge says timeout
     message = str(raised.value)
     assert message.startswith("`stubborn` was still running 1 s after Ctrl-C (SIGINT)")
     assert message.endswith(

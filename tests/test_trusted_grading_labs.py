@@ -136,9 +136,9 @@ def test_lab6_judge_names_an_int_rate_and_leaves_no_process(tmp_path: Path) -> N
     """The judge itself (a kernel of the student's own, unsandboxed as in a self-check):
     an int rate kills the talker at launch; the verdict says why, and every process of
     the launch is gone afterwards (stopped by one Ctrl-C to `ros2 launch`)."""
-    from autograder.judge import Verdict
+    from autograder.judge import Verdict, setup_cells
     from rosbook.runtime.kernels import UnixSocketKernelManager
-    from tests.labtools import answered, replace_in_answer
+    from tests.labtools import answered, grade_id, notebook_path, replace_in_answer
 
     lab6 = "lab06_launch_system"
     notebook = answered(
@@ -157,13 +157,14 @@ def test_lab6_judge_names_an_int_rate_and_leaves_no_process(tmp_path: Path) -> N
         client.start_channels()
         client.wait_for_ready(timeout=60)
         for gid in ("setup", "two_robots"):
-            cell = next(
-                c for c in notebook.cells if c.metadata.get("nbgrader", {}).get("grade_id") == gid
-            )
+            cell = next(c for c in notebook.cells if grade_id(c) == gid)
             reply = client.execute_interactive(cell.source, timeout=120, output_hook=lambda m: None)
             assert reply["content"]["status"] == "ok", reply["content"]
+        source = nbformat.read(notebook_path(lab6, released=False), as_version=4)
+        test = next(c for c in source.cells if grade_id(c) == "test_two_robots")
         request = {"assignment": lab6, "check": "test_two_robots",
-                   "connection_file": km.connection_file, "folder": str(folder)}  # fmt: skip
+                   "connection_file": km.connection_file, "folder": str(folder),
+                   "source": test.source, "setup": setup_cells(source)}  # fmt: skip
         judged = subprocess.run(
             [sys.executable, "-I", "-m", "autograder.judge"],
             input=json.dumps(request) + "\n", capture_output=True, text=True,

@@ -241,6 +241,19 @@ class JudgeAgent:
             if spinning:
                 self._resume()
 
+    def call_to_file(self, name: str, path: str) -> None:
+        """Pickle what the student's ``name()`` returns into ``path``, for a program the
+        judge starts as the student (the judge itself never unpickles it); say its type,
+        and why it could not be pickled, if so."""
+        value = student(name)()
+        error = None
+        try:
+            with open(path, "wb") as f:
+                pickle.dump(value, f)
+        except Exception as exc:  # noqa: BLE001 - the student's object: said, not raised
+            error = f"{type(exc).__name__}: {exc}"[:300]
+        self._answer(data({"type": type(value).__name__, "error": error}))
+
     def follow_clock(self, until: float, guard: float, gate: str | None = None) -> None:
         """Spin the node on the judge's /clock up to ``until``. After each new time, once
         its due callbacks ran, say on ``ACK_TOPIC`` the time and how many messages it has
@@ -455,18 +468,6 @@ class JudgeAgent:
 
     def call_function(self, name: str, args: list[Any]) -> None:
         self._answer(plain(student(name)(*args)))
-
-    def call_to_file(self, name: str, path: str) -> None:
-        """Pickle what the student's ``name()`` returns into ``path``, for a program the
-        judge starts as the student (the judge itself never unpickles it)."""
-        value = student(name)()
-        try:
-            with open(path, "wb") as f:
-                pickle.dump(value, f)
-        except Exception as exc:  # noqa: BLE001 - the student's object: said, not raised
-            self._answer({"type": type(value).__name__, "error": f"{type(exc).__name__}: {exc}"})
-            return
-        self._answer({"type": type(value).__name__, "error": None})
 
     def stop(self) -> None:
         self._pause()

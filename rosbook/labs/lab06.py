@@ -6,32 +6,76 @@ and ``setup.py`` in a scratch workspace, for real; ``check_two_robots`` launches
 student's description against a reference build and inspects the ROS graph on
 simulated time. Failures are ``CheckFailed`` errors (``AssertionError``s) naming the mistake.
 
-The grader's judge makes the same checks outside the student's kernel: it runs the
-builds as the student with ``python -I -m rosbook.labs.lab06`` (``main``), and the
-launch with ``ros2 launch`` on the description the kernel returned
-(``pickled_description``), and judges what it sees with the functions here.
+The same test cells run in the grader's judge (``rosbook.labs.remote``), outside the
+student's kernel, where the student's names are handles and plain data; there every
+run of the student's work is started by the judge as the student, where the student's
+code runs (``Judgement.wrap``), never in the judge:
+
+- ``build_package``: ``python -I -m rosbook.labs.lab06 manifest`` builds the two texts
+  with colcon (``setup.py`` is the student's code) and reports what the build shows
+  (``BuildFacts``: plain data), which the cell's ``assert_*`` then judge;
+  ``assert_runs`` starts ``ros2 run robot_talk ...`` and watches /chatter from the
+  judge's own nodes.
+- ``check_two_robots``: the kernel pickles what ``generate_launch_description()``
+  returns into the sandbox (the judge never unpickles it); the judge starts ``ros2
+  launch`` on a launch file that loads it (``pickled_description``), against the
+  reference build (the one ``share`` made for the grading run, read-only there), and
+  judges from its own nodes the ROS graph, the messages on its own ``/clock`` and
+  ``ros2 launch``'s exit codes after one Ctrl-C.
+
+A build's report comes from a process that also ran the student's ``setup.py``:
+forging it would take a ``setup.py`` written to write into its parent's output. What
+the points mostly rest on (the nodes' traffic, the graph, exit codes) the judge sees
+itself. What is expected (executables, dependencies, rates) is what the test cell
+passes, the contract's constants below when it passes nothing: never the judge's.
 """
 
 from __future__ import annotations
 
 import atexit
+import json
 import os
 import re
+import shlex
 import shutil
+import signal
+import subprocess
+import sys
+import threading
+import time
+import uuid
 from collections import Counter
-from collections.abc import Callable, Iterable, Mapping
-from dataclasses import dataclass, field
-from functools import cache
+from collections.abc import Callable, Iterable, Iterator, Mapping
+from contextlib import contextmanager, suppress
+from dataclasses import asdict, dataclass, field, fields
+from functools import cache, cached_property
 from importlib.resources import files
 from pathlib import Path
+from typing import Any
 
+from rcl_interfaces.msg import ParameterType
+from rcl_interfaces.srv import GetParameters
 from rclpy.node import Node as RclpyNode
 from rclpy.topic_endpoint_info import TopicEndpointInfo
 from std_msgs.msg import String
 
 from rosbook.labs.deferral import deferrable
-from rosbook.labs.probes import CheckFailed, Probe
+from rosbook.labs.lockstep import CLOCK_RETRY_S
+from rosbook.labs.probes import CheckFailed, Probe, ScriptRun, StillRunning, TimedOut, run_program
+from rosbook.labs.remote import (
+    EVENT_GUARD_S,
+    Judgement,
+    KernelError,
+    Student,
+    clock_message,
+    clock_publisher,
+    decode,
+    judgement,
+    judging,
+    ros_node,
+)
 from rosbook.launch.launcher import (
+    ESCALATED,
     Launch,
     LaunchDescription,
     LaunchError,
@@ -66,6 +110,63 @@ def write_layout(destination: str | Path) -> Path:
 
 
 @dataclass
+class BuildFacts:
+    """What the checks of a build read: plain data, so that a build made where the
+    student's code runs (``main``, graded) reports them and the same checks judge them."""
+
+    ok: bool
+    returncode: int
+    #: colcon's output (its end, when long)
+    output: str
+    #: what package.xml declares, or why it cannot be read (``manifest_error``)
+    name: str | None = None
+    version: str | None = None
+    exec_depends: list[str] = field(default_factory=list)
+    manifest_error: str | None = None
+    #: the version setup.py gave, read back from the build's egg-info
+    setup_version: str | None = None
+    #: the package is in the ament index under its name
+    indexed: bool = False
+    executables: list[str] = field(default_factory=list)
+    #: the files installed into ``share/robot_talk/``, relative to it
+    installed: list[str] = field(default_factory=list)
+
+    @classmethod
+    def from_plain(cls, plain: object) -> BuildFacts:
+        """Facts from a build's report, each field of its own type, else ``CheckFailed``."""
+        if not isinstance(plain, dict):
+            raise CheckFailed("the build's report was not readable")
+        kinds = {
+            "ok": bool,
+            "returncode": int,
+            "output": str,
+            "name": str,
+            "version": str,
+            "exec_depends": list,
+            "manifest_error": str,
+            "setup_version": str,
+            "indexed": bool,
+            "executables": list,
+            "installed": list,
+        }
+        given = {f.name: plain.get(f.name) for f in fields(cls) if f.name in plain}
+        for key, value in given.items():
+            if value is not None and type(value) is not kinds[key]:
+                raise CheckFailed(f"the build's report was not readable ({key})")
+            if isinstance(value, list) and not all(type(v) is str for v in value):
+                raise CheckFailed(f"the build's report was not readable ({key})")
+        try:
+            return cls(**given)
+        except TypeError:
+            raise CheckFailed("the build's report was not readable") from None
+
+
+#: The most of colcon's output and of the installed files a build's facts keep.
+OUTPUT_LIMIT = 100_000
+INSTALLED_LIMIT = 2_000
+
+
+@dataclass
 class BuiltPackage:
     """A scratch workspace with ``robot_talk`` in it, after ``colcon build``."""
 
@@ -76,6 +177,35 @@ class BuiltPackage:
     @property
     def source(self) -> Path:
         return self.workspace.src / PACKAGE
+
+    @cached_property
+    def facts(self) -> BuildFacts:
+        """What the build shows (``BuildFacts``)."""
+        run = self.build
+        facts = BuildFacts(run.ok, run.returncode, run.output[-OUTPUT_LIMIT:])
+        try:
+            manifest = _parse_manifest(self.source / "package.xml")
+        except CheckFailed as error:
+            facts.manifest_error = str(error)
+        else:
+            facts.name, facts.version = str(manifest.name), str(manifest.version)
+            facts.exec_depends = [str(dep.name) for dep in manifest.exec_depends]
+        facts.setup_version = setup_py_version(self.workspace)
+        facts.indexed = run.ok and PACKAGE in packages(self.env)
+        if facts.indexed:
+            facts.executables = executables(PACKAGE, self.env)
+        facts.installed = _installed(self.workspace.install / PACKAGE / "share" / PACKAGE)
+        return facts
+
+
+@dataclass
+class JudgedBuild:
+    """A build the judge had made where the student's code runs (``build_package``
+    when graded): what it showed, and its scratch folder there (the workspace is
+    ``FOLDER/ws``), removed when the test cell ends."""
+
+    facts: BuildFacts
+    folder: str
 
 
 _builds: dict[tuple[str, str], BuiltPackage] = {}
@@ -88,13 +218,27 @@ def _scratch(prefix: str) -> Workspace:
     return ws
 
 
-def build_package(package_xml: str, setup_py: str, root: str | Path | None = None) -> BuiltPackage:
+def build_package(
+    package_xml: str, setup_py: str, root: str | Path | None = None
+) -> BuiltPackage | JudgedBuild:
     """Lay out ``robot_talk`` with these manifests in a workspace (``root``, else a
     scratch one); colcon-build it.
 
     The same two texts are built once per process (a check after a try-it cell reuses
-    the build).
+    the build). When graded, the build is made as the student where the student's code
+    runs, and what it shows comes back (``JudgedBuild``).
     """
+    for name, text in (("PACKAGE_XML", package_xml), ("SETUP_PY", setup_py)):
+        if not isinstance(text, str):
+            shown = f"a {text.kind}" if isinstance(text, Student) else repr(text)
+            raise CheckFailed(f"{name} must be a string (the text of the file), not {shown}")
+    j = judging()
+    if j is not None:
+        folder = j.ends.enter_context(scratch_folder(j))
+        report = as_student(
+            j, "manifest", folder, {"package_xml": package_xml, "setup_py": setup_py}
+        )
+        return JudgedBuild(BuildFacts.from_plain(report.get("facts")), folder)
     key = (package_xml, setup_py)
     if root is None and key in _builds and _builds[key].workspace.root.exists():
         return _builds[key]
@@ -110,33 +254,47 @@ def build_package(package_xml: str, setup_py: str, root: str | Path | None = Non
     return built
 
 
+def _installed(share: Path) -> list[str]:
+    """The files under ``share`` (links followed, as an install found through them is
+    found), relative to it; at most ``INSTALLED_LIMIT``."""
+    found: list[str] = []
+    for top, _dirs, names in os.walk(share, followlinks=True):
+        for name in names:
+            path = Path(top) / name
+            if path.exists():
+                found.append(path.relative_to(share).as_posix())
+        if len(found) >= INSTALLED_LIMIT:
+            break
+    return sorted(found[:INSTALLED_LIMIT])
+
+
 def _tail(text: str, lines: int = 12) -> str:
     return "\n".join(text.strip().splitlines()[-lines:])
 
 
-def assert_built(built: BuiltPackage) -> None:
+def assert_built(built: BuiltPackage | JudgedBuild) -> None:
     """colcon succeeded and the package is in the ament index under its name."""
-    run = built.build
-    if not run.ok:
+    facts = built.facts
+    if not facts.ok:
         hint = ""
-        if "resource/" in run.output and "can't copy" in run.output:
+        if "resource/" in facts.output and "can't copy" in facts.output:
             hint = (
                 " setup.py installs 'resource/' + package_name as the package marker: "
                 f"package_name in setup.py must be '{PACKAGE}', the name in package.xml."
             )
-        elif "SyntaxError" in run.output or "Traceback" in run.output:
+        elif "SyntaxError" in facts.output or "Traceback" in facts.output:
             hint = " setup.py does not run: look at the Python error above."
         raise CheckFailed(
-            f"colcon build failed (exit code {run.returncode}).{hint}\n"
-            f"colcon printed:\n{_tail(run.output)}"
+            f"colcon build failed (exit code {facts.returncode}).{hint}\n"
+            f"colcon printed:\n{_tail(facts.output)}"
         )
-    manifest = _parse_manifest(built)
-    if manifest.name != PACKAGE:
+    _manifest_read(facts)
+    if facts.name != PACKAGE:
         raise CheckFailed(
-            f"package.xml names the package '{manifest.name}'; the folder and the task "
+            f"package.xml names the package '{facts.name}'; the folder and the task "
             f"call it '{PACKAGE}'"
         )
-    if PACKAGE not in packages(built.env):
+    if not facts.indexed:
         raise CheckFailed(
             f"colcon built the folder, but '{PACKAGE}' is not in the ament index, so "
             "`ros2 run` cannot find it. setup.py's data_files must install "
@@ -144,11 +302,17 @@ def assert_built(built: BuiltPackage) -> None:
         )
 
 
-def _parse_manifest(built: BuiltPackage):  # -> catkin_pkg.package.Package
+def _manifest_read(facts: BuildFacts) -> None:
+    """package.xml could be read as a manifest (else ``CheckFailed``, saying why)."""
+    if facts.manifest_error is not None:
+        raise CheckFailed(facts.manifest_error)
+
+
+def _parse_manifest(path: Path):  # -> catkin_pkg.package.Package
     from catkin_pkg.package import InvalidPackage, parse_package
 
     try:
-        return parse_package(str(built.source / "package.xml"))
+        return parse_package(str(path))
     except InvalidPackage as error:
         raise CheckFailed(
             f"package.xml is not a valid manifest: {str(error).splitlines()[-1]}. colcon "
@@ -159,34 +323,36 @@ def _parse_manifest(built: BuiltPackage):  # -> catkin_pkg.package.Package
         raise CheckFailed(f"package.xml cannot be read as XML: {error}") from None
 
 
-def setup_py_version(built: BuiltPackage) -> str | None:
+def setup_py_version(workspace: Workspace) -> str | None:
     """The version setup.py gave, read back from the build's egg-info."""
-    for info in (built.workspace.root / "build" / PACKAGE).glob("*.egg-info/PKG-INFO"):
+    for info in (workspace.root / "build" / PACKAGE).glob("*.egg-info/PKG-INFO"):
         match = re.search(r"^Version: (.+)$", info.read_text(), re.MULTILINE)
         if match:
             return match.group(1).strip()
     return None
 
 
-def assert_versions_agree(built: BuiltPackage, expected: str = VERSION) -> None:
+def assert_versions_agree(built: BuiltPackage | JudgedBuild, expected: str = VERSION) -> None:
     """package.xml and setup.py state the same version, the one the task asks for."""
-    xml_version = _parse_manifest(built).version
-    py_version = setup_py_version(built)
-    if py_version != xml_version:
+    facts = built.facts
+    _manifest_read(facts)
+    if facts.setup_version != facts.version:
         raise CheckFailed(
-            f"package.xml says version {xml_version} but setup.py says {py_version}: "
-            "colcon builds it anyway, without a word, but the two must agree (tools and "
-            "the package index read package.xml, Python reads setup.py)"
+            f"package.xml says version {facts.version} but setup.py says "
+            f"{facts.setup_version}: colcon builds it anyway, without a word, but the two "
+            "must agree (tools and the package index read package.xml, Python reads setup.py)"
         )
-    if xml_version != expected:
-        raise CheckFailed(f"the version is {xml_version}; the task asks for {expected}")
+    if facts.version != expected:
+        raise CheckFailed(f"the version is {facts.version}; the task asks for {expected}")
 
 
-def assert_dependencies(built: BuiltPackage, needed: Iterable[str] = DEPENDENCIES) -> None:
+def assert_dependencies(
+    built: BuiltPackage | JudgedBuild, needed: Iterable[str] = DEPENDENCIES
+) -> None:
     """package.xml declares every package the nodes import, for run time."""
-    manifest = _parse_manifest(built)
-    declared = {dep.name for dep in manifest.exec_depends}
-    missing = [name for name in needed if name not in declared]
+    facts = built.facts
+    _manifest_read(facts)
+    missing = [name for name in needed if name not in facts.exec_depends]
     if missing:
         tags = " ".join(f"<depend>{name}</depend>" for name in missing)
         raise CheckFailed(
@@ -195,9 +361,11 @@ def assert_dependencies(built: BuiltPackage, needed: Iterable[str] = DEPENDENCIE
         )
 
 
-def assert_executables(built: BuiltPackage, expected: dict[str, str] = EXECUTABLES) -> None:
+def assert_executables(
+    built: BuiltPackage | JudgedBuild, expected: dict[str, str] = EXECUTABLES
+) -> None:
     """Every node is an executable of the package (an entry point in setup.py)."""
-    have = executables(PACKAGE, built.env)
+    have = built.facts.executables
     missing = [name for name in expected if name not in have]
     if missing:
         entries = ", ".join(f"'{name} = {expected[name]}'" for name in missing)
@@ -209,10 +377,11 @@ def assert_executables(built: BuiltPackage, expected: dict[str, str] = EXECUTABL
         )
 
 
-def assert_installed(built: BuiltPackage, relative: str = f"launch/{LAUNCH_FILE}") -> None:
+def assert_installed(
+    built: BuiltPackage | JudgedBuild, relative: str = f"launch/{LAUNCH_FILE}"
+) -> None:
     """A data file was installed into ``share/robot_talk/``."""
-    share = built.workspace.install / PACKAGE / "share" / PACKAGE
-    if not (share / relative).exists():
+    if relative not in built.facts.installed:
         folder = relative.split("/")[0]
         raise CheckFailed(
             f"{relative} was not installed into share/{PACKAGE}/{folder}/, so "
@@ -223,9 +392,15 @@ def assert_installed(built: BuiltPackage, relative: str = f"launch/{LAUNCH_FILE}
 
 
 def assert_runs(
-    built: BuiltPackage, executable: str, topic: str = "/chatter", publishes: bool = True
+    built: BuiltPackage | JudgedBuild,
+    executable: str,
+    topic: str = "/chatter",
+    publishes: bool = True,
 ) -> list[str]:
-    """``ros2 run robot_talk EXECUTABLE`` starts a node that uses ``topic``; Ctrl-C stops it."""
+    """``ros2 run robot_talk EXECUTABLE`` starts a node that uses ``topic``; Ctrl-C stops
+    it. Each process's exit code."""
+    if isinstance(built, JudgedBuild):
+        return _judged_run(built, executable, topic, publishes)
     ros.init()
     description = LaunchDescription([Node(package=PACKAGE, executable=executable)])
     try:
@@ -242,6 +417,32 @@ def assert_runs(
     finally:
         codes = system.shutdown(sigterm_timeout=3.0, sigkill_timeout=2.0)
     return [f"{name}: exit code {code}" for name, code in codes.items()]
+
+
+def _judged_run(built: JudgedBuild, executable: str, topic: str, publishes: bool) -> list[str]:
+    """``assert_runs`` on a build the judge had made: ``ros2 run`` in its workspace, as
+    the student. How it stops is not judged (the cell does not judge it either): a node
+    that hangs on Ctrl-C, as honest code sometimes does (Fast DDS's teardown hang,
+    ``autograder/judge.py``), is killed."""
+    j = judgement()
+    command = (
+        f"source {shlex.quote(built.folder)}/ws/install/setup.bash && "
+        f"exec ros2 run {PACKAGE} {shlex.quote(executable)}"
+    )
+    what = f"`ros2 run {PACKAGE} {executable}`"
+    with started(j, ["bash", "-c", command], what) as run:
+        watch_run(
+            executable,
+            run.alive,
+            run.printed,
+            topic,
+            publishes,
+            guard=START_GUARD_S,
+            silent=TimedOut,
+        )
+        with suppress(TimedOut):  # then killed with its group as it ends
+            return [f"{executable}: exit code {run.stop(what, True, EVENT_GUARD_S)}"]
+    return []
 
 
 def watch_run(
@@ -282,35 +483,6 @@ def watch_run(
         probe.close()
 
 
-#: The checks made before ``ros2 run robot_talk talker`` in the test cell; the rest
-#: come after it, and ``ros2 run robot_talk listener`` last.
-CHECKED_BEFORE_RUN = ("built", "versions", "talker")
-
-
-def first_manifest_failure(
-    built: BuiltPackage,
-    expected_executables: dict[str, str] = EXECUTABLES,
-    dependencies: Iterable[str] = DEPENDENCIES,
-    installed: str = f"launch/{LAUNCH_FILE}",
-) -> tuple[str, str] | None:
-    """``(check, message)`` of the first of the test cell's checks of the built package
-    (all but the runs) that fails, in the cell's order; None if all hold."""
-    talker = {"talker": expected_executables["talker"]}
-    for name, check in (
-        ("built", assert_built),
-        ("versions", assert_versions_agree),
-        ("talker", lambda b: assert_executables(b, talker)),
-        ("executables", lambda b: assert_executables(b, expected_executables)),
-        ("dependencies", lambda b: assert_dependencies(b, dependencies)),
-        ("installed", lambda b: assert_installed(b, installed)),
-    ):
-        try:
-            check(built)
-        except CheckFailed as error:
-            return name, str(error)
-    return None
-
-
 # -- task 2: two robots, launched and inspected ------------------------------------------
 
 
@@ -342,7 +514,7 @@ def add_reference_package(src: str | Path) -> Path:
 
 #: The folder a grader shares, read-only, with every sandbox of a grading run
 #: (``autograder.sandbox.SHARED_ENV``), and the reference build it makes there once for
-#: all the run's submissions (``autograder.judge_lab06.share``).
+#: all the run's submissions (``share``).
 SHARED_ENV = "ROSBOOK_SHARED"
 SHARED_REFERENCE = "lab06_reference"
 
@@ -406,9 +578,13 @@ def expected_nodes(robots: Iterable[str]) -> list[str]:
 
 
 def check_two_robots(
-    generate: Callable[[], LaunchDescription], seconds: float = 2.0
+    generate: Callable[[], LaunchDescription] | Student, seconds: float = 2.0
 ) -> TwoRobotsReport:
-    """Launch ``generate()``, check the graph, drive /clock for ``seconds``, stop it."""
+    """Launch ``generate()``, check the graph, drive /clock for ``seconds``, stop it
+    (when graded: ``generate`` is the student's function in the kernel, and the launch
+    is the judge's, ``_judged_two_robots``)."""
+    if isinstance(generate, Student):
+        return _judged_two_robots(judgement(), generate, seconds)
     try:
         description = generate()
     except Exception as error:
@@ -743,6 +919,346 @@ def assert_graph(
                 )
 
 
+# -- graded: what the judge starts as the student, and judges from its own nodes -------
+
+#: The judge keeps one participant from the first test cell it runs to its own end
+#: (read by ``autograder.judge``): its watchers and probes come and go while the
+#: student's nodes start and stop, and a participant destroyed then can hang (Fast
+#: DDS's teardown hang, ``autograder/judge.py``).
+HOLD_PARTICIPANT = True
+
+#: Hang guards (wall clock): a colcon build; programs started in the sandbox showing up
+#: (its cgroup shares the CPU as one process does: slow on a busy machine); a program's
+#: stop after Ctrl-C (``ros2 launch`` waits that long before it escalates to SIGTERM).
+BUILD_GUARD_S = 300.0
+START_GUARD_S = 120.0
+EXIT_GUARD_S = 60.0
+#: Simulated seconds between the judge's /clock messages on a two-robot launch.
+CLOCK_STEP_S = 0.05
+#: Lines of a program's output that a stop which timed out reports.
+STOP_TAIL = 20
+
+
+def share(folder: Path) -> None:
+    """The reference ``robot_talk`` built once for a grading run (read by
+    ``autograder.judge.shared_env``): every submission's try-it cells and two-robot
+    launches use it, read-only, instead of building their own."""
+    build_reference(folder / SHARED_REFERENCE)
+
+
+class StopTimeout(StillRunning):
+    """A program did not end after Ctrl-C within its hang guard: a timeout."""
+
+
+class Program:
+    """A program the judge started as the student; its output, read as it comes."""
+
+    def __init__(self, run: ScriptRun) -> None:
+        self.run = run
+        self.lines: list[str] = []
+        self._reader = threading.Thread(target=self._read, daemon=True)
+        self._reader.start()
+
+    def _read(self) -> None:
+        assert self.run.proc.stdout is not None
+        for line in self.run.proc.stdout:
+            if len(self.lines) < 10_000:
+                self.lines.append(line.rstrip("\n"))
+
+    def alive(self) -> bool:
+        return self.run.alive()
+
+    def printed(self) -> str:
+        return "\n".join(self.lines)
+
+    def stop(self, what: str, whole_group: bool = False, guard: float = EXIT_GUARD_S) -> int:
+        """Ctrl-C (``whole_group``: to every process of its group, as a terminal's
+        Ctrl-C); its exit code. A hang guard: ``StopTimeout`` if it does not stop."""
+        if self.alive():
+            try:
+                if whole_group:
+                    os.killpg(self.run.proc.pid, signal.SIGINT)
+                else:
+                    self.run.proc.send_signal(signal.SIGINT)
+            except ProcessLookupError:
+                pass
+        try:
+            code = self.run.proc.wait(timeout=guard)
+        except subprocess.TimeoutExpired:
+            last = "\n".join(self.lines[-STOP_TAIL:])
+            raise StopTimeout(
+                f"{what} was still running {guard:.0f} s after Ctrl-C (SIGINT); "
+                f"the last it printed:\n{last}"
+            ) from None
+        self._reader.join(timeout=EVENT_GUARD_S)
+        return code
+
+
+@contextmanager
+def started(j: Judgement, argv: list[str], what: str) -> Iterator[Program]:
+    """``argv`` started as the student (gone afterwards, with what it started)."""
+    with run_program(argv, cwd=j.folder, wrap=j.wrap, path=Path(what)) as run:
+        yield Program(run)
+
+
+def finished(j: Judgement, argv: list[str], what: str, stdin: str = "") -> tuple[int, str]:
+    """``argv`` run to its end as the student: (exit code, output)."""
+    with run_program(argv, cwd=j.folder, wrap=j.wrap, stdin=True) as run:
+        try:
+            output, _ = run.proc.communicate(stdin, timeout=BUILD_GUARD_S)
+        except subprocess.TimeoutExpired:
+            raise TimedOut(f"{what} did not finish within {BUILD_GUARD_S:.0f} s") from None
+    return run.proc.returncode, output
+
+
+def as_student(j: Judgement, what: str, folder: str, request: dict[str, Any]) -> dict[str, Any]:
+    """``python -I -m rosbook.labs.lab06 WHAT FOLDER`` run as the student, given
+    ``request``; its report (the line that repeats the nonce sent on its stdin)."""
+    nonce = uuid.uuid4().hex
+    argv = [sys.executable, "-I", "-m", "rosbook.labs.lab06", what, folder]
+    doing = {"manifest": f"building {PACKAGE} with colcon"}.get(what, f"the {what} build")
+    code, output = finished(j, argv, doing, json.dumps({**request, "nonce": nonce}))
+    for line in output.splitlines():
+        if line.startswith(REPORT):
+            try:
+                report = dict(json.loads(line[len(REPORT) :]))
+            except (ValueError, TypeError):
+                continue
+            if report.get("nonce") == nonce and code == 0:
+                return report
+    raise CheckFailed(f"{doing} failed (exit code {code}):\n{_tail(output, 8)}")
+
+
+@contextmanager
+def scratch_folder(j: Judgement) -> Iterator[str]:
+    """A folder for a check's builds, made and removed by the student's own ``mktemp``
+    and ``rm`` (the judge writes nothing where the student's code can put a link)."""
+    argv = ["mktemp", "-d", "-p", "/tmp", "rosbook_lab06.XXXXXX"]
+    code, output = finished(j, argv, "mktemp")
+    if code != 0:
+        raise CheckFailed(f"no scratch folder could be made for the build: {output.strip()}")
+    folder = output.strip().splitlines()[-1]
+    try:
+        yield folder
+    finally:
+        finished(j, ["rm", "-rf", folder], "rm")
+
+
+def _judged_two_robots(j: Judgement, generate: Student, seconds: float) -> TwoRobotsReport:
+    """``check_two_robots`` graded: the kernel pickles the description into a scratch
+    folder, and ``ros2 launch`` runs it as the student, against the reference build."""
+    with scratch_folder(j) as folder:
+        description = f"{folder}/description.pickle"
+        _description_into(j, generate, description)
+        workspace = reported_workspace(folder, as_student(j, "reference", folder, {}))
+        print(f"[judge] the reference {PACKAGE}: {workspace}", flush=True)
+        try:
+            report, code = launch_two_robots(j, folder, workspace, description, seconds)
+            again = raced(report.exit_codes, report.output)  # rclpy's own race on Ctrl-C
+        except StopTimeout:  # a node stuck in Fast DDS's teardown hang: once more
+            again = True
+        if again:
+            report, code = launch_two_robots(j, folder, workspace, description, seconds)
+    codes = report.exit_codes
+    assert_stopped_cleanly(
+        codes,
+        code != 0 and not any(codes.values()),
+        {name: _lines_of(report.output, name) for name in codes},
+    )
+    return report
+
+
+def _description_into(j: Judgement, generate: Student, path: str) -> None:
+    """What the student's ``generate()`` returns, pickled by the kernel into ``path``."""
+    call = f"{generate.name}()"
+    try:
+        made = decode(j.kernel.call("call_to_file", generate.name, path))
+    except KernelError as exc:
+        if "NotImplementedError" in str(exc):
+            raise CheckFailed(f"{call}: this task is not done yet (NotImplementedError)") from None
+        raise CheckFailed(f"{call} raised {exc}") from None
+    if not isinstance(made, dict) or made.get("type") != "LaunchDescription":
+        raise not_a_description(str(made.get("type") if isinstance(made, dict) else made))
+    if made.get("error"):
+        raise CheckFailed(
+            "the LaunchDescription cannot be handed to `ros2 launch` (it is pickled "
+            f"to get there): {made['error']}. Use plain values in it, not functions."
+        )
+
+
+def reported_workspace(folder: str, report: dict[str, Any]) -> str:
+    """The workspace the ``reference`` run used: the run's shared build, or its own in
+    ``folder``; any other is an error of the grader's, never the student's."""
+    shared = os.environ.get(SHARED_ENV)
+    expected = {f"{folder}/ws"} | ({f"{shared}/{SHARED_REFERENCE}"} if shared else set())
+    workspace = str(report.get("workspace"))
+    if workspace not in expected:
+        raise RuntimeError(f"the reference build reported {workspace}, not one of {expected}")
+    return workspace
+
+
+def launch_two_robots(
+    j: Judgement, folder: str, workspace: str, description: str, seconds: float
+) -> tuple[TwoRobotsReport, int]:
+    """``ros2 launch`` of the pickled description, judged for ``seconds`` of the judge's
+    /clock and stopped with one Ctrl-C: what it showed, and the launch's exit code. It
+    waits ``EXIT_GUARD_S`` after Ctrl-C before SIGTERM (a slow stop is no mistake)."""
+    command = (
+        f"source {shlex.quote(workspace)}/install/setup.bash && "
+        f"ROSBOOK_LAB06_DESCRIPTION={shlex.quote(description)} "
+        f"exec ros2 launch {shlex.quote(folder)}/{JUDGED_LAUNCH} "
+        f"sigterm_timeout:={EXIT_GUARD_S:g}"
+    )
+    guard = EXIT_GUARD_S + 2 * EVENT_GUARD_S  # past the launch's SIGTERM and SIGKILL
+    lingering()
+    with started(j, ["bash", "-c", command], "ros2 launch") as system:
+        try:
+            nodes, counts = launched(system, seconds)
+        except BaseException:
+            with suppress(TimedOut):  # the nodes are stopped as always: Ctrl-C
+                system.stop("`ros2 launch`", guard=guard)
+            raise
+        code = system.stop("`ros2 launch`", guard=guard)
+    return TwoRobotsReport(nodes, counts, seconds, exit_codes(system.lines), system.lines), code
+
+
+def lingering() -> None:
+    """Wait until an earlier launch's nodes have left the graph: killed, they linger
+    until their DDS lease ends (then the launch goes on regardless). Live nodes only
+    (``graph_nodes``): a report left of one that has gone never leaves."""
+    watcher = ros_node("judge_lab06_gone")
+    expected = set(expected_nodes(ROBOTS))
+
+    def gone() -> bool:
+        return not expected & set(graph_nodes(watcher))
+
+    try:
+        ros.spin_until(gone, watcher, timeout=START_GUARD_S)
+    finally:
+        ros.remove(watcher)
+
+
+def raced(codes: dict[str, int], lines: list[str]) -> bool:
+    """A node that did not stop cleanly on the one Ctrl-C, or was escalated to. The
+    nodes are the reference's (``robot_talk``, honest code the description only starts
+    and names), so this is a race or hang in shutdown that honest code meets on a
+    loaded machine: rclpy's own race on Ctrl-C (``probes.rclpy_raced``), Fast DDS's
+    teardown hang (``autograder/judge.py``), a node stopped by a signal, and once in a
+    stress run a listener that ended with exit code 1. The launch runs once more; a
+    second unclean stop is the verdict, with what the node printed last."""
+    return any(codes.values()) or any(ESCALATED in line for line in lines)
+
+
+#: ``ros2 launch``'s own lines about its processes.
+STARTED = re.compile(r"^\[INFO\] \[([^\]]+)\]: process started with pid")
+DIED = re.compile(r"^\[ERROR\] \[([^\]]+)\]: process has died \[pid \d+, exit code (-?\d+)")
+CLEAN = re.compile(r"^\[INFO\] \[([^\]]+)\]: process has finished cleanly")
+
+
+def exit_codes(lines: list[str]) -> dict[str, int]:
+    """Each process's exit code, as ``ros2 launch`` printed them."""
+    codes: dict[str, int] = {}
+    for line in lines:
+        if match := DIED.match(line):
+            codes[match[1]] = int(match[2])
+        elif match := CLEAN.match(line):
+            codes[match[1]] = 0
+    return codes
+
+
+def launched(system: Program, seconds: float) -> tuple[list[str], dict[str, int]]:
+    """Judge the graph the launch made, then run it for ``seconds`` on the judge's
+    /clock: the live nodes, and how many messages each robot's talker published."""
+    watcher = ros_node("judge_lab06_graph")
+    probes = {robot: Probe(f"/{robot}/chatter", String, name="rate") for robot in ROBOTS}
+    probe = probes["robot1"]
+
+    def processes() -> list[str]:
+        return [m[1] for line in list(system.lines) if (m := STARTED.match(line))]
+
+    def started() -> int | None:
+        names = processes()  # none until ros2 launch says it started them
+        return started_nodes(names) if names else None
+
+    def ended() -> bool:
+        return not system.alive() or bool(exit_codes(system.lines))
+
+    try:
+        nodes = wait_for_launch(probe, started, ended, watcher, START_GUARD_S)
+        codes = exit_codes(system.lines)
+        died = [(name, code, _lines_of(system.lines, name)) for name, code in codes.items()]
+        if not system.alive():
+            system.stop("`ros2 launch`")  # it has exited: its last lines are read
+        if not system.alive() and not processes():
+            raise CheckFailed(
+                "`ros2 launch` stopped before it started a process; it printed:\n"
+                + "\n".join(system.lines[-8:])
+            )
+        assert_graph(probe, nodes, expected_nodes(ROBOTS), len(processes()), died)
+        return nodes, run_on_clock(watcher, probes, seconds)
+    finally:
+        for p in probes.values():
+            p.close()
+        ros.remove(watcher)
+
+
+def _lines_of(lines: list[str], process: str) -> list[str]:
+    prefix = f"[{process}] "
+    return [line[len(prefix) :] for line in lines if line.startswith(prefix)]
+
+
+def talker_rates(node: RclpyNode) -> dict[str, float | None]:
+    """Each robot's talker's ``rate`` parameter, asked over its parameter service: it
+    paces the judge's /clock (what is judged is the messages that arrive)."""
+    rates: dict[str, float | None] = {}
+    for robot in ROBOTS:
+        client = node.create_client(GetParameters, f"/{robot}/talker/get_parameters")
+        try:
+            if not ros.spin_until(client.service_is_ready, node, timeout=START_GUARD_S):
+                raise TimedOut(f"/{robot}/talker's parameter service did not appear")
+            future = client.call_async(GetParameters.Request(names=["rate"]))
+            if not ros.spin_until(future.done, node, timeout=START_GUARD_S):
+                raise TimedOut(f"/{robot}/talker did not say its rate")
+            values = future.result().values
+            is_double = values and values[0].type == ParameterType.PARAMETER_DOUBLE
+            rates[robot] = values[0].double_value if is_double else None
+        finally:
+            node.destroy_client(client)
+    return rates
+
+
+def run_on_clock(node: RclpyNode, probes: dict[str, Probe], seconds: float) -> dict[str, int]:
+    """Publish /clock in steps up to ``seconds``, each once every talker published what
+    its rate makes due (sent again meanwhile: a /clock message to a best-effort
+    subscription can be lost); the messages each probe received."""
+    clock = clock_publisher(node)
+    if not ros.spin_until(lambda: clock.get_subscription_count() >= 4, node, timeout=START_GUARD_S):
+        raise CheckFailed(
+            "the launched nodes do not all listen to /clock although the check adds "
+            "SetParameter('use_sim_time', True) first: did the description change "
+            "use_sim_time?"
+        )
+    rates = talker_rates(node)
+    listening = [node, *(probe.node for probe in probes.values())]
+    for k in range(1, round(seconds / CLOCK_STEP_S) + 1):
+        t = k * CLOCK_STEP_S
+        clock.publish(clock_message(t))
+
+        def arrived(t: float = t) -> bool:
+            return all(
+                len(probes[robot].received.messages) >= int(t * rate + 1e-9)
+                for robot, rate in rates.items()
+                if rate
+            )
+
+        deadline = time.monotonic() + START_GUARD_S
+        while not ros.spin_until(arrived, *listening, timeout=CLOCK_RETRY_S):
+            if time.monotonic() > deadline:
+                raise TimedOut(f"the talkers did not publish on /clock's t = {t:.2f} s")
+            clock.publish(clock_message(t))
+    return {robot: len(p.received.messages) for robot, p in probes.items()}
+
+
 # -- as a program: the builds, run as the student where the student's code runs -------
 
 #: The launch file ``reference`` writes: the kernel's description, on simulated time.
@@ -753,7 +1269,6 @@ def pickled_description() -> LaunchDescription:
     """What the student's ``generate_launch_description()`` returned, pickled by their
     kernel into the file ``ROSBOOK_LAB06_DESCRIPTION`` names, after
     ``SetParameter('use_sim_time', True)`` (loaded by ``ros2 launch``, as the student)."""
-    import os
     import pickle
 
     with open(os.environ["ROSBOOK_LAB06_DESCRIPTION"], "rb") as f:
@@ -769,15 +1284,12 @@ REPORT = "rosbook-lab06-report: "
 def main(argv: list[str] | None = None) -> int:
     """``python -I -m rosbook.labs.lab06 manifest|reference FOLDER``, given a JSON object
     on stdin: ``manifest`` builds ``robot_talk`` in ``FOLDER/ws`` from its
-    ``package_xml`` and ``setup_py`` and reports the first failing check (``expected``:
-    ``first_manifest_failure``'s keywords); ``reference`` builds the reference package
-    in ``FOLDER/ws`` (unless the grader shared one: ``shared_reference``), reports the
-    workspace and writes ``FOLDER/two_robots.launch.py``. A grader runs these as
-    the student (``setup.py`` is the student's code); the report repeats the ``nonce``
-    it was given, which the student's code never sees."""
-    import json
-    import sys
-
+    ``package_xml`` and ``setup_py`` and reports what the build shows (``BuildFacts``);
+    ``reference`` builds the reference package in ``FOLDER/ws`` (unless the grader
+    shared one: ``shared_reference``), reports the workspace and writes
+    ``FOLDER/two_robots.launch.py``. The judge runs these as the student (``setup.py``
+    is the student's code); the report repeats the ``nonce`` it was given, which the
+    student's code never sees."""
     what, folder = sys.argv[1:] if argv is None else argv
     request = json.load(sys.stdin)
     root = Path(folder)
@@ -790,7 +1302,8 @@ def main(argv: list[str] | None = None) -> int:
         report: dict[str, object] = {"workspace": str(workspace.root)}
     else:
         built = build_package(request["package_xml"], request["setup_py"], root / "ws")
-        report = {"failure": first_manifest_failure(built, **request["expected"])}
+        assert isinstance(built, BuiltPackage)  # built here, not judged
+        report = {"facts": asdict(built.facts)}
     print(REPORT + json.dumps({**report, "nonce": request["nonce"]}), flush=True)
     return 0
 

@@ -28,7 +28,7 @@ import ast
 import json
 import time
 from collections.abc import Callable, Iterator, Sequence
-from contextlib import AbstractContextManager, contextmanager
+from contextlib import AbstractContextManager, ExitStack, contextmanager
 from contextvars import ContextVar
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -273,6 +273,9 @@ class Judgement:
     cell_timeout: float | None = None
     #: The student's node the cell started in the kernel (``start_node``), if any.
     started: RemoteNode | None = None
+    #: What the cell's checks leave to undo when it ends (lab 6's scratch build folder,
+    #: used by the checks after the one that made it): closed by the judge.
+    ends: ExitStack = field(default_factory=ExitStack)
 
     def guard(self, generous: float) -> float:
         """``generous`` seconds, or the cell's limit if that is shorter."""
