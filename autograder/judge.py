@@ -366,29 +366,33 @@ def free_names(tree: ast.AST) -> set[str]:
     return read - bound_names(tree) - set(dir(builtins))
 
 
-def checks_aliases(setup: list[str]) -> set[str]:
-    """The names the setup cells bind to a ``rosbook.labs`` module (``checks``)."""
-    names = set()
+def lab_imports(setup: list[str]) -> dict[str, str]:
+    """The names the setup cells bind to a ``rosbook.labs`` module (``checks``), and the
+    module each names. The setup is read, not run: the grader asks before any kernel
+    runs (``shared_env``)."""
+    found: dict[str, str] = {}
     for source in setup:
         try:
             tree = ast.parse(source)
         except SyntaxError:
             continue
         for node in ast.walk(tree):
-            if isinstance(node, ast.ImportFrom) and (node.module or "").startswith("rosbook.labs"):
-                names |= {a.asname or a.name for a in node.names}
+            if isinstance(node, ast.ImportFrom) and node.module == "rosbook.labs":
+                found |= {a.asname or a.name: f"rosbook.labs.{a.name}" for a in node.names}
             elif isinstance(node, ast.Import):
-                names |= {
-                    a.asname for a in node.names if a.asname and a.name.startswith("rosbook.labs")
+                found |= {
+                    a.asname: a.name
+                    for a in node.names
+                    if a.asname and a.name.startswith("rosbook.labs.")
                 }
-    return names
+    return found
 
 
 def calls_checks(source: str, setup: list[str]) -> bool:
     """Whether test cell ``source`` (as the kernel gets it) calls the lab's checks: its
     run in the kernel is then deferred (``rosbook.labs.deferral``), and passes there only
     if forged. A cell that calls none can pass in the kernel honestly."""
-    aliases = checks_aliases(setup)
+    aliases = set(lab_imports(setup))
     try:
         tree = ast.parse(source)
     except SyntaxError:
@@ -482,24 +486,11 @@ def student_wrap(sandbox_pid: int | None, folder: Path) -> Callable[[list[str]],
 
 def lab_module_hook(setup: list[str], name: str) -> Any:
     """``name`` of the lab's checks module (a ``rosbook.labs`` module the setup imports),
-    or None: a lab's own settings for its judge (``HOLD_PARTICIPANT``, ``share``). The
-    setup is read, not run: the grader asks before any kernel runs (``shared_env``)."""
-    for source in setup:
-        try:
-            tree = ast.parse(source)
-        except SyntaxError:
-            continue
-        for node in ast.walk(tree):
-            if isinstance(node, ast.ImportFrom) and node.module == "rosbook.labs":
-                modules = [f"rosbook.labs.{a.name}" for a in node.names]
-            elif isinstance(node, ast.Import):
-                modules = [a.name for a in node.names if a.name.startswith("rosbook.labs.")]
-            else:
-                continue
-            for module in modules:
-                value = getattr(importlib.import_module(module), name, None)
-                if value is not None:
-                    return value
+    or None: a lab's own settings for its judge (``HOLD_PARTICIPANT``, ``share``)."""
+    for module in lab_imports(setup).values():
+        value = getattr(importlib.import_module(module), name, None)
+        if value is not None:
+            return value
     return None
 
 
