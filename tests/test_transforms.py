@@ -108,6 +108,18 @@ def test_time_zero_is_the_latest_common_time(chain: Buffer) -> None:
     assert Time.from_msg(static.header.stamp).nanoseconds == 0
 
 
+def test_time_travel_goes_through_the_fixed_frame(chain: Buffer) -> None:
+    # where base_link was at 1 s (odom's origin, facing +x), seen from base_link at 3 s
+    # (at odom x=2, facing +y): 2 m to its left, turned -90 degrees
+    t = chain.lookup_transform_full("base_link", at(3), "base_link", at(1), "world")
+    assert xy_yaw(t) == (0.0, 2.0, round(-math.pi / 2, 9))
+    assert (t.header.frame_id, t.child_frame_id) == ("base_link", "base_link")
+    assert Time.from_msg(t.header.stamp).nanoseconds == at(3).nanoseconds
+    assert not chain.can_transform_full("base_link", at(3), "base_link", at(0.5), "world")
+    with pytest.raises(LookupException, match="argument fixed_frame does not exist"):
+        chain.lookup_transform_full("base_link", at(3), "base_link", at(1), "nowhere")
+
+
 def test_a_static_transform_holds_at_every_time(chain: Buffer) -> None:
     for seconds in (0.0, 2.0, 1000.0):
         assert xy_yaw(chain.lookup_transform("world", "odom", at(seconds))) == (1.0, 0.0, 0.0)

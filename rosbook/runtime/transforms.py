@@ -153,6 +153,20 @@ def _interpolate(one: _Stored, two: _Stored, stamp: int) -> Rigid:
     )  # fmt: skip
 
 
+def _stamped(rigid: Rigid, target: str, source: str, stamp: object) -> TransformStamped:
+    out = TransformStamped()
+    out.header.frame_id, out.header.stamp, out.child_frame_id = target, stamp, source
+    r, t = out.transform.rotation, out.transform.translation
+    r.x, r.y, r.z, r.w = rigid.rotation
+    t.x, t.y, t.z = rigid.translation
+    return out
+
+
+def _rigid(transform: TransformStamped) -> Rigid:
+    r, t = transform.transform.rotation, transform.transform.translation
+    return Rigid((r.x, r.y, r.z, r.w), (t.x, t.y, t.z))
+
+
 def _seconds(stamp: int) -> str:
     """A time as tf2 prints it (``displayTimePoint``: seconds, six decimals)."""
     return f"{stamp / 1e9:.6f}"
@@ -458,14 +472,44 @@ class BufferCore:
                 if stamp == 0:
                     stamp = self._latest_common_time(target_frame, source_frame)
                 rigid = self._walk(target_frame, source_frame, stamp)
-        out = TransformStamped()
-        out.header.frame_id = target_frame
-        out.header.stamp = Time(nanoseconds=stamp).to_msg()
-        out.child_frame_id = source_frame
-        r, t = out.transform.rotation, out.transform.translation
-        r.x, r.y, r.z, r.w = rigid.rotation
-        t.x, t.y, t.z = rigid.translation
-        return out
+        return _stamped(rigid, target_frame, source_frame, Time(nanoseconds=stamp).to_msg())
+
+    def lookup_transform_full_core(
+        self,
+        target_frame: str,
+        target_time: Time,
+        source_frame: str,
+        source_time: Time,
+        fixed_frame: str,
+    ) -> TransformStamped:
+        """Time travel: ``source_frame`` at ``source_time`` into ``target_frame`` at
+        ``target_time``, through ``fixed_frame``, which holds still in between."""
+        with self._lock:
+            for argument, frame in (("target_frame", target_frame),
+                                    ("source_frame", source_frame),
+                                    ("fixed_frame", fixed_frame)):  # fmt: skip
+                self._validate(f"lookupTransform argument {argument}", frame)
+            to_fixed = self.lookup_transform_core(fixed_frame, source_frame, source_time)
+            from_fixed = self.lookup_transform_core(target_frame, fixed_frame, target_time)
+        rigid = _rigid(from_fixed) * _rigid(to_fixed)
+        return _stamped(rigid, target_frame, source_frame, from_fixed.header.stamp)
+
+    def can_transform_full_core(
+        self,
+        target_frame: str,
+        target_time: Time,
+        source_frame: str,
+        source_time: Time,
+        fixed_frame: str,
+    ) -> tuple[bool, str]:
+        """``(True, '')``, or ``(False, why)``, for ``lookup_transform_full_core``."""
+        try:
+            self.lookup_transform_full_core(
+                target_frame, target_time, source_frame, source_time, fixed_frame
+            )
+        except TransformException as error:
+            return False, str(error)
+        return True, ""
 
     def can_transform_core(
         self, target_frame: str, source_frame: str, time: Time
@@ -558,6 +602,40 @@ class Buffer(BufferCore):
                 lambda: self.can_transform_core(target_frame, source_frame, time)[0], timeout
             )
         result = self.can_transform_core(target_frame, source_frame, time)
+        return result if return_debug_tuple else result[0]
+
+    def lookup_transform_full(
+        self,
+        target_frame: str,
+        target_time: Time,
+        source_frame: str,
+        source_time: Time,
+        fixed_frame: str,
+        timeout: Duration = NO_WAIT,
+    ) -> TransformStamped:
+        """Time travel (see ``lookup_transform_full_core``), waiting up to ``timeout``."""
+        self.can_transform_full(
+            target_frame, target_time, source_frame, source_time, fixed_frame, timeout
+        )
+        return self.lookup_transform_full_core(
+            target_frame, target_time, source_frame, source_time, fixed_frame
+        )
+
+    def can_transform_full(
+        self,
+        target_frame: str,
+        target_time: Time,
+        source_frame: str,
+        source_time: Time,
+        fixed_frame: str,
+        timeout: Duration = NO_WAIT,
+        return_debug_tuple: bool = False,
+    ) -> bool | tuple[bool, str]:
+        """Whether ``lookup_transform_full`` can answer, waiting up to ``timeout``."""
+        args = (target_frame, target_time, source_frame, source_time, fixed_frame)
+        if timeout != NO_WAIT:
+            self._wait(lambda: self.can_transform_full_core(*args)[0], timeout)
+        result = self.can_transform_full_core(*args)
         return result if return_debug_tuple else result[0]
 
     def wait_for_transform_async(self, target_frame: str, source_frame: str, time: Time):  # noqa: ANN201
