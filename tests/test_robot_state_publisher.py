@@ -5,7 +5,6 @@ from __future__ import annotations
 import math
 import threading
 from collections.abc import Iterator
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -16,11 +15,12 @@ from rclpy.node import Node
 from rclpy.time import Time
 from sensor_msgs.msg import JointState
 
+from rosbook import robots
 from rosbook.robots import urdf
 from rosbook.runtime.transforms import Buffer, TransformListener
 from rosbook.sim.robot_state_publisher import RobotStatePublisher, matrix_to_transform
 
-DIFF_DRIVE = Path(urdf.__file__).with_name("diff_drive.urdf")
+DIFF_DRIVE = robots.DIFF_DRIVE_URDF
 WAIT = Duration(seconds=120)  # only a hang guard: lookups return when the transform arrives
 
 

@@ -597,12 +597,19 @@ class Buffer(BufferCore):
         return_debug_tuple: bool = False,
     ) -> bool | tuple[bool, str]:
         """Whether the transform can be had, waiting up to ``timeout`` for it."""
+        return self._answer(
+            lambda: self.can_transform_core(target_frame, source_frame, time),
+            timeout, return_debug_tuple,
+        )  # fmt: skip
+
+    def _answer(
+        self, check: Callable[[], tuple[bool, str]], timeout: Duration, debug: bool
+    ) -> bool | tuple[bool, str]:
+        """``check()``, once it is true or ``timeout`` (wall clock) has passed."""
         if timeout != NO_WAIT:
-            self._wait(
-                lambda: self.can_transform_core(target_frame, source_frame, time)[0], timeout
-            )
-        result = self.can_transform_core(target_frame, source_frame, time)
-        return result if return_debug_tuple else result[0]
+            self._wait(lambda: check()[0], timeout)
+        result = check()
+        return result if debug else result[0]
 
     def lookup_transform_full(
         self,
@@ -633,10 +640,9 @@ class Buffer(BufferCore):
     ) -> bool | tuple[bool, str]:
         """Whether ``lookup_transform_full`` can answer, waiting up to ``timeout``."""
         args = (target_frame, target_time, source_frame, source_time, fixed_frame)
-        if timeout != NO_WAIT:
-            self._wait(lambda: self.can_transform_full_core(*args)[0], timeout)
-        result = self.can_transform_full_core(*args)
-        return result if return_debug_tuple else result[0]
+        return self._answer(
+            lambda: self.can_transform_full_core(*args), timeout, return_debug_tuple
+        )
 
     def wait_for_transform_async(self, target_frame: str, source_frame: str, time: Time):  # noqa: ANN201
         """A future that completes with the transform once it can be had."""
