@@ -264,3 +264,22 @@ def test_a_late_listener_still_gets_the_static_transforms(broadcaster) -> None:
     finally:
         early.destroy_node()
         rclpy.shutdown(context=context)
+
+
+def test_tf_message_has_the_type_hash_of_jazzys_tf2_msgs() -> None:
+    # What a full install's tools check before they read /tf: the RIHS01 hash of the type,
+    # here as rclpy announces ours, against rosbags' own store of Jazzy's message types.
+    from rosbags.typesys import Stores, get_typestore
+    from tf2_msgs.msg import TFMessage
+
+    jazzy = get_typestore(Stores.ROS2_JAZZY).hash_rihs01("tf2_msgs/msg/TFMessage")
+    context = rclpy.Context()
+    rclpy.init(context=context)
+    node = Node("tf_hash", context=context)
+    try:
+        node.create_publisher(TFMessage, "/tf", 10)
+        announced = node.get_publishers_info_by_topic("/tf")[0].topic_type_hash
+    finally:
+        node.destroy_node()
+        rclpy.shutdown(context=context)
+    assert str(announced) == jazzy
