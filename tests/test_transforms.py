@@ -283,3 +283,27 @@ def test_tf_message_has_the_type_hash_of_jazzys_tf2_msgs() -> None:
         node.destroy_node()
         rclpy.shutdown(context=context)
     assert str(announced) == jazzy
+
+
+def test_a_static_broadcaster_sends_every_child_it_was_given_in_each_message() -> None:
+    from tf2_ros import StaticTransformBroadcaster
+
+    context = rclpy.Context()
+    rclpy.init(context=context)
+    node = Node("tf_static_many", context=context)
+    try:
+        broadcaster = StaticTransformBroadcaster(node)
+        broadcaster.sendTransform(stamped("base_link", "laser", 0, x=0.1))
+        broadcaster.sendTransform([stamped("base_link", "camera", 0, x=0.2),
+                                   stamped("base_link", "laser", 0, x=9.0)])  # fmt: skip
+        # one latched message with both children; the first laser transform is kept
+        sent = [(t.child_frame_id, t.transform.translation.x)
+                for t in broadcaster.net_message.transforms]  # fmt: skip
+        assert sent == [("laser", 0.1), ("camera", 0.2)]
+        buffer = Buffer()
+        listener = TransformListener(buffer, node, spin_thread=True)  # joins after both sends
+        assert buffer.can_transform("laser", "camera", Time(), timeout=Duration(seconds=120))
+        listener.unregister()
+    finally:
+        node.destroy_node()
+        rclpy.shutdown(context=context)
