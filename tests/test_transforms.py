@@ -307,3 +307,25 @@ def test_a_static_broadcaster_sends_every_child_it_was_given_in_each_message() -
     finally:
         node.destroy_node()
         rclpy.shutdown(context=context)
+
+
+def test_a_jump_back_in_time_clears_the_buffer() -> None:
+    # simulated time restarting (a new simulation, a bag played again) empties it, as tf2_ros
+    from rclpy.parameter import Parameter
+
+    context = rclpy.Context()
+    rclpy.init(context=context)
+    node = Node("tf_jump", context=context,
+                parameter_overrides=[Parameter("use_sim_time", value=True)])  # fmt: skip
+    try:
+        clock = node.get_clock()
+        clock.set_ros_time_override(Time(seconds=5, clock_type=clock.clock_type))
+        buffer = Buffer(node=node)
+        buffer.set_transform(stamped("odom", "base_link", 5.0), "test")
+        clock.set_ros_time_override(Time(seconds=4.5, clock_type=clock.clock_type))
+        assert buffer.can_transform("odom", "base_link", at(5.0))  # half a second back: kept
+        clock.set_ros_time_override(Time(seconds=1, clock_type=clock.clock_type))
+        assert not buffer.can_transform("odom", "base_link", at(5.0))
+    finally:
+        node.destroy_node()
+        rclpy.shutdown(context=context)

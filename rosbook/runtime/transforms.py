@@ -30,7 +30,7 @@ from dataclasses import dataclass
 import rclpy.logging
 from geometry_msgs.msg import TransformStamped
 from rclpy.callback_groups import ReentrantCallbackGroup
-from rclpy.clock import Clock
+from rclpy.clock import Clock, JumpThreshold
 from rclpy.duration import Duration
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
@@ -554,13 +554,28 @@ class Buffer(BufferCore):
     Filled by a ``TransformListener`` (or ``set_transform``). A wait (``timeout``) returns
     as soon as the transform can be computed; something else must spin the listener's node
     meanwhile (``TransformListener(..., spin_thread=True)``, or another thread), as with
-    tf2_ros.
+    tf2_ros. When the clock (``node``'s, else the system's) jumps back in time by more
+    than a second, as simulated time does when a simulation restarts, the buffer forgets
+    its transforms, as tf2_ros's does.
     """
 
     def __init__(self, cache_time: Duration | None = None, node: Node | None = None) -> None:
         super().__init__(cache_time)
         self.clock = node.get_clock() if node is not None else Clock()
         self._callbacks: list[Callable[[], None]] = []
+        threshold = JumpThreshold(
+            min_forward=None, min_backward=Duration(seconds=-1), on_clock_change=True
+        )
+        self.jump_handle = self.clock.create_jump_callback(
+            threshold, post_callback=self.time_jump_callback
+        )
+
+    def time_jump_callback(self, time_jump: object) -> None:
+        """Forget the transforms: they belong to a time that is gone."""
+        rclpy.logging.get_logger("tf2_buffer").warning(
+            "Detected jump back in time. Clearing tf buffer."
+        )
+        self.clear()
 
     def set_transform(self, transform: TransformStamped, authority: str) -> bool:
         stored = super().set_transform(transform, authority)
