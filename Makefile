@@ -13,10 +13,15 @@ OUT ?= grading
 
 .PHONY: book test test-fast stress lab hub axe check labs grade bench lint clean
 
-$(STAMP): requirements.txt pyproject.toml
+# The course's own interface packages (rosbook/ros_packages: tf2_msgs) are built into the
+# venv by colcon from the wheels, as its other ROS packages are installed there.
+COURSE_PACKAGES := $(shell find rosbook/ros_packages -type f) rosbook/launch/wheel_prefix.cmake
+
+$(STAMP): requirements.txt pyproject.toml $(COURSE_PACKAGES)
 	@$(PYTHON) -c 'import platform, sys; ok = sys.platform == "linux" and platform.machine() == "x86_64" and (3, 10) <= sys.version_info[:2] <= (3, 13); ok or sys.exit("ROS 2 Jazzy wheels exist for Linux x86_64 with Python 3.10-3.13 only; this is %s %s with Python %d.%d (see README: Mac and Windows)" % (sys.platform, platform.machine(), *sys.version_info[:2]))'
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --disable-pip-version-check -r requirements.txt
+	$(BIN)/python -m rosbook.launch.interfaces_build install
 	touch $(STAMP)
 
 ## book: build the HTML book into _build/html, every cell executed (cached)

@@ -96,8 +96,10 @@ def test_pkg_create_refuses_bad_names_other_build_types_and_existing_folders(
 ) -> None:
     with pytest.raises(ValueError, match="not valid"):
         create_package("Demo-Pkg", tmp_path, log=None)
-    with pytest.raises(ValueError, match="ament_cmake"):
-        create_package("demo", tmp_path, build_type="ament_cmake", log=None)
+    with pytest.raises(ValueError, match="'cmake' is not available"):
+        create_package("demo", tmp_path, build_type="cmake", log=None)
+    with pytest.raises(ValueError, match="C\\+\\+ node"):
+        create_package("demo", tmp_path, build_type="ament_cmake", node_name="n", log=None)
     create_package("demo", tmp_path, log=None)
     with pytest.raises(FileExistsError, match="already exists"):
         create_package("demo", tmp_path, log=None)

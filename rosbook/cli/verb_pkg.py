@@ -1,7 +1,7 @@
 """``ros2 pkg create | list | executables | prefix | xml``: packages of the ament index.
 
-``create`` scaffolds an ``ament_python`` package with the same files as the real
-command; the other sub-verbs read the ament index on ``AMENT_PREFIX_PATH`` (and the
+``create`` scaffolds an ``ament_python`` or ``ament_cmake`` package with the same files as
+the real command; the other sub-verbs read the ament index on ``AMENT_PREFIX_PATH`` (and the
 venv, which plays ``/opt/ros/jazzy`` here).
 """
 

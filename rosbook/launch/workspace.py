@@ -143,8 +143,13 @@ def _package_xml(
     email: str,
     license: str,
     dependencies: Sequence[str],
+    build_type: str = "ament_python",
 ) -> str:
+    """``package.xml`` as upstream's template writes it for ``build_type``."""
+    buildtool = BUILDTOOL_DEPENDS.get(build_type, [])
+    tools = "".join(f"  <buildtool_depend>{dep}</buildtool_depend>\n" for dep in buildtool)
     depends = "".join(f"  <depend>{dep}</depend>\n" for dep in dependencies)
+    tests = "".join(f"  <test_depend>{dep}</test_depend>\n" for dep in TEST_DEPENDS[build_type])
     return (
         '<?xml version="1.0"?>\n'
         '<?xml-model href="http://download.ros.org/schema/package_format3.xsd" '
@@ -156,16 +161,49 @@ def _package_xml(
         f'  <maintainer email="{email}">{maintainer}</maintainer>\n'
         f"  <license>{license}</license>\n"
         "\n"
+        f"{tools}{chr(10) if tools else ''}"
         f"{depends}{chr(10) if depends else ''}"
-        "  <test_depend>ament_copyright</test_depend>\n"
-        "  <test_depend>ament_flake8</test_depend>\n"
-        "  <test_depend>ament_pep257</test_depend>\n"
-        "  <test_depend>python3-pytest</test_depend>\n"
-        "\n"
+        f"{tests}\n"
         "  <export>\n"
-        "    <build_type>ament_python</build_type>\n"
+        f"    <build_type>{build_type}</build_type>\n"
         "  </export>\n"
         "</package>\n"
+    )
+
+
+def _cmakelists(name: str, dependencies: Sequence[str]) -> str:
+    """``CMakeLists.txt`` as upstream's ``ament_cmake`` template writes it (no C++ node)."""
+    finds = (
+        "".join(f"find_package({dep} REQUIRED)\n" for dep in dependencies)
+        if dependencies
+        else "# uncomment the following section in order to fill in\n"
+        "# further dependencies manually.\n# find_package(<dependency> REQUIRED)\n"
+    )
+    return (
+        "cmake_minimum_required(VERSION 3.8)\n"
+        f"project({name})\n"
+        "\n"
+        'if(CMAKE_COMPILER_IS_GNUCXX OR CMAKE_CXX_COMPILER_ID MATCHES "Clang")\n'
+        "  add_compile_options(-Wall -Wextra -Wpedantic)\n"
+        "endif()\n"
+        "\n"
+        "# find dependencies\n"
+        "find_package(ament_cmake REQUIRED)\n"
+        f"{finds}"
+        "\n"
+        "if(BUILD_TESTING)\n"
+        "  find_package(ament_lint_auto REQUIRED)\n"
+        "  # the following line skips the linter which checks for copyrights\n"
+        "  # comment the line when a copyright and license is added to all source files\n"
+        "  set(ament_cmake_copyright_FOUND TRUE)\n"
+        "  # the following line skips cpplint (only works in a git repo)\n"
+        "  # comment the line when this package is in a git repo and when\n"
+        "  # a copyright and license is added to all source files\n"
+        "  set(ament_cmake_cpplint_FOUND TRUE)\n"
+        "  ament_lint_auto_find_test_dependencies()\n"
+        "endif()\n"
+        "\n"
+        "ament_package()\n"
     )
 
 
@@ -239,6 +277,13 @@ _TEST_FILES = {
 
 _NAME_RE = re.compile(r"^[a-z][a-z0-9_]*$")
 
+#: The build types ``create_package`` writes, with upstream's test dependencies for each.
+TEST_DEPENDS = {
+    "ament_python": ["ament_copyright", "ament_flake8", "ament_pep257", "python3-pytest"],
+    "ament_cmake": ["ament_lint_auto", "ament_lint_common"],
+}
+BUILDTOOL_DEPENDS = {"ament_cmake": ["ament_cmake"]}
+
 
 def create_package(
     name: str,
@@ -254,17 +299,24 @@ def create_package(
     maintainer_email: str | None = None,
     log: Callable[[str], None] | None = print,
 ) -> Path:
-    """Scaffold ``destination/name`` as ``ros2 pkg create --build-type ament_python`` does.
+    """Scaffold ``destination/name`` as ``ros2 pkg create --build-type BUILD_TYPE`` does.
 
-    Writes ``package.xml`` (format 3), ``setup.py``, ``setup.cfg``, the package marker
-    ``resource/<name>``, the module folder with ``__init__.py`` (and ``<node_name>.py``
-    with a ``main()`` registered as an entry point, when ``node_name`` is given) and the
-    linter tests in ``test/``. ``log`` receives the lines the real command prints.
+    Writes ``package.xml`` (format 3) and, for ``ament_python``, ``setup.py``,
+    ``setup.cfg``, the package marker ``resource/<name>``, the module folder with
+    ``__init__.py`` (and ``<node_name>.py`` with a ``main()`` registered as an entry point,
+    when ``node_name`` is given) and the linter tests in ``test/``; for ``ament_cmake``,
+    ``CMakeLists.txt`` and the empty ``src/`` and ``include/<name>/``. ``log`` receives the
+    lines the real command prints.
     """
-    if build_type != "ament_python":
+    if build_type not in TEST_DEPENDS:
         raise ValueError(
-            f"build type {build_type!r} is not available here: this book builds Python "
-            "packages only (ament_cmake needs a C++ toolchain and a full ROS install)"
+            f"build type {build_type!r} is not available here: this book builds "
+            f"{' and '.join(TEST_DEPENDS)} packages"
+        )
+    if build_type == "ament_cmake" and node_name:
+        raise ValueError(
+            "--node-name with --build-type ament_cmake writes a C++ node: this book's nodes "
+            "are Python, in ament_python packages (an ament_cmake package here holds interfaces)"
         )
     if not _NAME_RE.match(name):
         raise ValueError(
@@ -310,17 +362,28 @@ def create_package(
 
     # in upstream's order (ros2pkg.api.create), each line as upstream prints it
     folder("")
-    write("package.xml", _package_xml(name, version, description, maintainer, email, license, deps))
-    say("creating source folder")
-    folder(name)
-    write("setup.py", _setup_py(name, version, description, maintainer, email, license, node_name))
-    write("setup.cfg", _setup_cfg(name))
-    folder("resource")
-    write(f"resource/{name}", "")
-    write(f"{name}/__init__.py", "")
-    folder("test")
-    for filename, text in _TEST_FILES.items():
-        write(f"test/{filename}", text)
+    write(
+        "package.xml",
+        _package_xml(name, version, description, maintainer, email, license, deps, build_type),
+    )
+    if build_type == "ament_cmake":
+        say("creating source and include folder")
+        folder("src")
+        folder(f"include/{name}")
+        write("CMakeLists.txt", _cmakelists(name, deps))
+    else:
+        say("creating source folder")
+        folder(name)
+        write(
+            "setup.py", _setup_py(name, version, description, maintainer, email, license, node_name)
+        )
+        write("setup.cfg", _setup_cfg(name))
+        folder("resource")
+        write(f"resource/{name}", "")
+        write(f"{name}/__init__.py", "")
+        folder("test")
+        for filename, text in _TEST_FILES.items():
+            write(f"test/{filename}", text)
     if node_name:
         write(
             f"{name}/{node_name}.py",

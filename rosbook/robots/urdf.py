@@ -422,10 +422,11 @@ class Robot:
             motion[:3, 3] = axis / np.linalg.norm(axis) * position
         return origin @ motion
 
-    def _position(self, name: str, positions: Mapping[str, float]) -> float:
+    def joint_position(self, name: str, positions: Mapping[str, float]) -> float:
+        """The position of joint ``name`` in ``positions`` (a mimic joint: from its source)."""
         j = self._joints[name]
         if j.mimic is not None:
-            source = self._position(j.mimic.joint, positions)
+            source = self.joint_position(j.mimic.joint, positions)
             return source * (j.mimic.multiplier or 1.0) + (j.mimic.offset or 0.0)
         return float(positions.get(name, 0.0))
 
@@ -445,7 +446,7 @@ class Robot:
         pose = np.eye(4)
         while link in self._parent_joint:
             j = self._parent_joint[link]
-            pose = self.joint_transform(j.name, self._position(j.name, positions)) @ pose
+            pose = self.joint_transform(j.name, self.joint_position(j.name, positions)) @ pose
             link = j.parent
         return pose
 
