@@ -28,7 +28,7 @@ import ast
 import json
 import time
 from collections.abc import Callable, Iterator, Sequence
-from contextlib import AbstractContextManager, contextmanager
+from contextlib import AbstractContextManager, ExitStack, contextmanager
 from contextvars import ContextVar
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -209,6 +209,11 @@ class RemoteNode:
     ) -> list[tuple[str, list[str]]]:
         return [(t, list(ty)) for t, ty in self._info["subscriptions"]]
 
+    def get_service_names_and_types_by_node(
+        self, name: str, namespace: str
+    ) -> list[tuple[str, list[str]]]:
+        return [(s, list(ty)) for s, ty in self._info["services"]]
+
     def __getattr__(self, attribute: str) -> Any:
         if attribute.startswith("_"):
             raise AttributeError(attribute)
@@ -236,6 +241,10 @@ class Judgement:
     cell_timeout: float | None = None
     #: The student's node the cell started in the kernel (``start_node``), if any.
     started: RemoteNode | None = None
+    #: What keeps the started node going in the kernel (a lockstep clock it follows,
+    #: which occupies the kernel meanwhile): ended before another node starts and with
+    #: the cell, with the cell's exception if it raised.
+    running: ExitStack = field(default_factory=ExitStack)
 
     def guard(self, generous: float) -> float:
         """``generous`` seconds, or the cell's limit if that is shorter."""
@@ -276,6 +285,7 @@ class Judgement:
         shown = [f"{k}={v!r}" for k, v in kwargs.items()]
         shown += [f"Parameter({k!r}, value={v!r})" for k, v in (parameters or {}).items()]
         call = f"{factory.name}({', '.join(shown)})"
+        self.running.close()  # the kernel is free again for the next node
         try:
             info = self.kernel.call(
                 "start", factory.name, kwargs, sim_time, parameters, not sim_time
@@ -393,7 +403,8 @@ def judging_cell(j: Judgement) -> Iterator[Judgement]:
     """Run a test cell's checks against the kernel of ``j`` inside this block."""
     token = _judging.set(j)
     try:
-        yield j
+        with j.running:
+            yield j
     finally:
         _judging.reset(token)
 
