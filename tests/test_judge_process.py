@@ -657,3 +657,27 @@ def test_lab3s_test_cells_pass_in_the_judge_on_the_solution(
     assert [(v.grade_id, v.passed, v.message) for v in verdicts] == [
         (check, True, "") for check in LAB3_TESTS
     ]
+
+
+@pytest.mark.slow  # a lab 3 cell in the judge
+def test_an_edited_hidden_lab3_test_is_what_the_judge_runs(
+    session: Session, tmp_path: Path
+) -> None:
+    """The instructor's hidden block is the judge's script: a check added to it (here
+    one that the solution cannot pass, run while the node follows the judge's clock)
+    decides the verdict, with no other file touched."""
+    notebook = nbformat.read(notebook_path("lab03_services_actions", released=False), 4)
+    cell = next(c for c in notebook.cells if grade_id(c) == "test_clock_server")
+    hidden = "checks.assert_tells_time(server, clock, at=40.0)\n"
+    assert hidden in cell.source
+    edited = cell.source.replace(
+        hidden, hidden + "checks.assert_serves(server, 'what_time_b', Trigger)\n"
+    )
+    with judged_kernel(lab03_kernel_code(("clock_server",))) as kernel:
+        verdict = judge_check(
+            kernel, "lab03_services_actions", "test_clock_server", tmp_path, edited
+        )
+    assert (verdict.passed, verdict.timeout) == (False, False), verdict
+    assert verdict.message.startswith(
+        "node 'clock_b' serves no std_srvs/srv/Trigger on /what_time_b"
+    ), verdict.message
