@@ -7,7 +7,7 @@ another context), bounds every wait, and fails with a ``CheckFailed`` (an
 When graded, the same checks run in the judge on handles (``rosbook.labs.remote``): the
 student's node runs in the kernel, following the judge's ``/clock`` in lockstep (one
 ``RemoteClock`` per node, started by the first check that needs the node to answer:
-``followed``), and the judge calls its service, sends goals to its action, sets its
+``_followed_clock``), and the judge calls its service, sends goals to its action, sets its
 parameters and listens to its topic from nodes of its own, so every answer is the
 judge's to read. One thing is the kernel's word: the simulated time at which each action
 feedback was sent (it may be sent while the judge holds a time), used for the pacing
@@ -74,7 +74,8 @@ DISCOVERY_S = 30.0
 #: machine must not decide what "in time" is): answered, and given up (the allowed
 #: slack past its timeout_s).
 GRADED_ANSWER_S = EVENT_GUARD_S
-GRADED_GIVE_UP_S, GRADED_SLACK_S = 5.0, 3.0
+GRADED_GIVE_UP_S = 5.0
+GRADED_SLACK_S = 3.0
 
 
 def _fq(node: Node) -> str:
@@ -116,20 +117,21 @@ def _explained_clock(name: str) -> Iterator[RemoteClock]:
 
 
 #: The clock each judgement's node follows, by its ``running`` stack.
-_followed: dict[int, RemoteClock] = {}
+_clocks: dict[int, RemoteClock] = {}
 
 
-def followed(node: RemoteNode) -> RemoteClock:
-    """The judge's ``/clock`` that the student's ``node`` follows in the kernel, in
-    lockstep: started at the first call and kept to the cell's end (or the next node),
-    so the node answers calls while the judge holds a time and its time only moves on."""
+def _followed_clock(node: RemoteNode) -> RemoteClock:
+    """The judge's ``/clock`` that the student's ``node`` (the cell's latest) follows in
+    the kernel, in lockstep: started at the first call and kept to the cell's end (or
+    its next node), so the node answers calls while the judge holds a time and its time
+    only moves on."""
     j = judgement()
     key = id(j.running)
-    clock = _followed.get(key)
-    if clock is None or clock.name != node.get_name():
+    clock = _clocks.get(key)
+    if clock is None:
         clock = j.running.enter_context(_explained_clock(node.get_name()))
-        _followed[key] = clock
-        j.running.callback(_followed.pop, key, None)
+        _clocks[key] = clock
+        j.running.callback(_clocks.pop, key, None)
     return clock
 
 
@@ -158,7 +160,7 @@ def assert_tells_time(server: Node, clock: SimClock, at: float) -> None:
     """Move simulated time to ``at`` s and ask ``what_time`` from a client node of the check
     (graded: in one step of the clock the kernel's node follows)."""
     if is_student(server):
-        remote = followed(server)  # type: ignore[arg-type]
+        remote = _followed_clock(server)  # type: ignore[arg-type]
         remote.advance(at - remote.now, step=at - remote.now)
     else:
         clock.advance(at - clock.now, step=0.5)
@@ -408,10 +410,10 @@ def countdown(
 ) -> GoalRun:
     """Send a countdown goal to ``countdown`` from a client node of the check
     (``CLIENT_NODE``); ``on_ready`` as for ``run_goal``. Graded, to the node the cell
-    started in the kernel, on the clock it follows (``followed``)."""
+    started in the kernel, on the clock it follows (``_followed_clock``)."""
     j = judging()
     if j is not None and j.started is not None:
-        return _countdown_in_kernel(followed(j.started), order, cancel_after, on_feedback)
+        return _countdown_in_kernel(_followed_clock(j.started), order, cancel_after, on_feedback)
     return _countdown(clock, order, cancel_after, on_feedback, on_ready)
 
 
@@ -567,7 +569,7 @@ def assert_cancel_honoured(run: GoalRun, rate_hz: float) -> None:
 def assert_declared(node: Node, name: str, default: Any, via: Node | None = None) -> None:
     """``node`` declared ``name`` and it reads ``default``, as seen from another node."""
     if is_student(node):
-        followed(node)  # type: ignore[arg-type]
+        _followed_clock(node)  # type: ignore[arg-type]
     asker = via or Node("param_check_client")
     try:
         with call_failing(f"reading the parameters of '{node.get_name()}'"):
@@ -590,7 +592,7 @@ def assert_declared(node: Node, name: str, default: Any, via: Node | None = None
 def set_from_outside(target: Node, name: str, value: Any, via: Node | None = None) -> Any:
     """Set ``target``'s parameter from a node of the check, as ``ros2 param set`` does."""
     if is_student(target):
-        followed(target)  # type: ignore[arg-type]
+        _followed_clock(target)  # type: ignore[arg-type]
     setter = via or Node("param_check_client")
     try:
         with call_failing(f"setting '{name}' from outside"):
@@ -628,7 +630,7 @@ def assert_rate_follows(node: Node, clock: SimClock, probe: Probe) -> None:
         judgement().wait_on_graph(node.get_name(), probe.topic, "publisher")
     probe.wait_for_publisher()
     if is_student(node):
-        clock = followed(node)  # type: ignore[arg-type,assignment]
+        clock = _followed_clock(node)  # type: ignore[arg-type,assignment]
         clock.arrived = lambda published: (  # type: ignore[attr-defined]
             len(probe.received.messages) >= published.get(probe.topic, 0)
         )
