@@ -66,7 +66,6 @@ from rosbook.runtime.session import ros
 
 #: Labs whose test cells the judge decides, and the module holding their checks.
 JUDGED_LABS = {
-    "lab03_services_actions": "autograder.judge_lab03",
     "lab05_diff_drive": "autograder.judge_lab05",
 }
 

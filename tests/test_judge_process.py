@@ -383,15 +383,15 @@ def judge_check(
 ) -> judge.Verdict:
     """The judge's verdict on ``check`` of ``assignment`` for the student in ``kernel``
     (``edit``: how the instructor changed the test cell's source, if they did)."""
-    source = nbformat.read(notebook_path(assignment, released=False), as_version=4)
-    cell = next(c for c in source.cells if grade_id(c) == check)
+    notebook = nbformat.read(notebook_path(assignment, released=False), as_version=4)
+    cell = next(c for c in notebook.cells if grade_id(c) == check)
     request = {
         "check": check,
         "assignment": assignment,
         "connection_file": kernel.client.connection_file,
         "folder": str(folder),
         "source": edit(cell.source),
-        "setup": judge.setup_cells(source),
+        "setup": judge.setup_cells(notebook),
     }
     return judge.judge_one(request, {kernel.client.connection_file: kernel})
 
@@ -519,18 +519,22 @@ def test_a_call_whose_limit_passed_is_a_timeout_not_wrong(
     """A check's call that got no answer within its limit (here no server at all, with
     the limit cut to 0.5 s) is a verdict of "timeout" (a hang guard), not of wrong code;
     a call that failed otherwise still fails the check."""
-    from autograder import judge_lab03
-    from rosbook.labs import lab03, lockstep
+    from rosbook.labs import lab03
     from rosbook.runtime.params import ParameterError
 
     monkeypatch.setattr(lab03, "DISCOVERY_S", 0.5)
-
-    def unanswered(j: judge.Judgement) -> None:
-        lab03.set_from_outside(lockstep.RemoteNode("nobody_here"), "rate_hz", 5.0)
-
-    monkeypatch.setitem(judge_lab03.CHECKS, "test_rate_parameter", unanswered)
+    unanswered = (
+        "class Nobody:\n"
+        "    def get_name(self):\n"
+        "        return 'nobody_here'\n"
+        "    def get_fully_qualified_name(self):\n"
+        "        return '/nobody_here'\n"
+        "checks.set_from_outside(Nobody(), 'rate_hz', 5.0)\n"
+    )
     with judged_kernel("") as kernel:
-        verdict = judge_check(kernel, "lab03_services_actions", "test_rate_parameter", tmp_path)
+        verdict = judge_check(
+            kernel, "lab03_services_actions", "test_rate_parameter", tmp_path, lambda _: unanswered
+        )
     assert (verdict.passed, verdict.timeout) == (False, True), verdict
     assert verdict.message.startswith(
         "timeout: no server for '/nobody_here/set_parameters (rcl_interfaces/srv/SetParameters)'"
@@ -665,3 +669,50 @@ def test_a_judge_failure_passes_through_the_labs_checks_as_it_was_said() -> None
 
     with pytest.raises(judge.KernelError, match="^the kernel gave no answer to the judge$"):
         lab02.assert_model_matches(predict, [(2, 1.7, 3, 6)])
+
+
+#: Lab 3's test cells, as its notebook orders them.
+LAB3_TESTS = ("test_clock_server", "test_trigger_client", "test_countdown_action",
+              "test_rate_parameter")  # fmt: skip
+
+
+@pytest.mark.slow  # four lab 3 cells, hidden blocks included
+def test_lab3s_test_cells_pass_in_the_judge_on_the_solution(
+    session: Session, tmp_path: Path
+) -> None:
+    """The judge runs lab 3's test cells as the notebook holds them, hidden blocks
+    included, against the solution's nodes and function in the kernel: each passes."""
+    code = lab03_kernel_code(
+        ("clock_server", "trigger_client", "countdown_action", "rate_parameter")
+    )
+    with judged_kernel(code) as kernel:
+        verdicts = [
+            judge_check(kernel, "lab03_services_actions", check, tmp_path) for check in LAB3_TESTS
+        ]
+    assert [(v.grade_id, v.passed, v.message) for v in verdicts] == [
+        (check, True, "") for check in LAB3_TESTS
+    ]
+
+
+@pytest.mark.slow  # a lab 3 cell in the judge
+def test_an_edited_hidden_lab3_test_is_what_the_judge_runs(
+    session: Session, tmp_path: Path
+) -> None:
+    """The instructor's hidden block is the judge's script: a check added to it (here
+    one that the solution cannot pass, run while the node follows the judge's clock)
+    decides the verdict, with no other file touched."""
+    notebook = nbformat.read(notebook_path("lab03_services_actions", released=False), 4)
+    cell = next(c for c in notebook.cells if grade_id(c) == "test_clock_server")
+    hidden = "checks.assert_tells_time(server, clock, at=40.0)\n"
+    assert hidden in cell.source
+    edited = cell.source.replace(
+        hidden, hidden + "checks.assert_serves(server, 'what_time_b', Trigger)\n"
+    )
+    with judged_kernel(lab03_kernel_code(("clock_server",))) as kernel:
+        verdict = judge_check(
+            kernel, "lab03_services_actions", "test_clock_server", tmp_path, lambda _: edited
+        )
+    assert (verdict.passed, verdict.timeout) == (False, False), verdict
+    assert verdict.message.startswith(
+        "node 'clock_b' serves no std_srvs/srv/Trigger on /what_time_b"
+    ), verdict.message

@@ -177,6 +177,7 @@ class JudgeAgent:
                 "namespace": ns,
                 "publishers": self.node.get_publisher_names_and_types_by_node(name, ns),
                 "subscriptions": self.node.get_subscriber_names_and_types_by_node(name, ns),
+                "services": self.node.get_service_names_and_types_by_node(name, ns),
             }
         )
         if background:
@@ -544,13 +545,6 @@ class JudgeAgent:
         self._answer(answers)
 
     # -- lab 3 -------------------------------------------------------------------------
-
-    def services(self) -> None:
-        self._answer(
-            self.node.get_service_names_and_types_by_node(
-                self.node.get_name(), self.node.get_namespace()
-            )
-        )
 
     def call_trigger(
         self,

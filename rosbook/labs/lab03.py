@@ -3,11 +3,23 @@
 Each check talks to the student's node from clients of its own (another node, often
 another context), bounds every wait, and fails with a ``CheckFailed`` (an
 ``AssertionError``) that says what was expected, what was seen and the likely ROS cause.
+
+When graded, the same checks run in the judge on handles (``rosbook.labs.remote``): the
+student's node runs in the kernel, following the judge's ``/clock`` in lockstep (one
+``RemoteClock`` per node, started by the first check that needs the node to answer:
+``_followed_clock``), and the judge calls its service, sends goals to its action, sets its
+parameters and listens to its topic from nodes of its own, so every answer is the
+judge's to read. One thing is the kernel's word: the simulated time at which each action
+feedback was sent (it may be sent while the judge holds a time), used for the pacing
+only. The student's client function is called in the kernel against a server of the
+judge's whose answer carries a nonce: only a real call can return it, and only the judge
+counts the calls.
 """
 
 from __future__ import annotations
 
 import re
+import secrets
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from typing import Any
@@ -17,8 +29,28 @@ from std_srvs.srv import Trigger
 from test_msgs.action import Fibonacci
 
 from rosbook.labs.deferral import deferrable
+from rosbook.labs.lockstep import (
+    LOCKSTEP_GUARD_S,
+    SIM_STEP_S,
+    RemoteClock,
+    remote_clock,
+    wait_for,
+    wait_until_discovered,
+)
 from rosbook.labs.probes import *  # noqa: F403 (the shared probes, as checks.X)
 from rosbook.labs.probes import CheckFailed, Probe
+from rosbook.labs.remote import (
+    EVENT_GUARD_S,
+    KERNEL_REPLY_GUARD_S,
+    JudgeTimeout,
+    KernelError,
+    RemoteNode,
+    Student,
+    Unreadable,
+    is_student,
+    judgement,
+    judging,
+)
 from rosbook.runtime.actions import GoalRun, run_goal
 from rosbook.runtime.interfaces import interface_name
 from rosbook.runtime.params import ParameterError, get_parameter, list_parameters, set_parameter
@@ -38,8 +70,12 @@ GOAL_SIM_TIMEOUT_S = 12.0
 #: seconds to discover a node. Passing it raises ``ServiceTimeout``, a timeout, never a
 #: wrong answer.
 DISCOVERY_S = 30.0
-#: Simulated time step of the checks: every period they use is a multiple of it.
-SIM_STEP_S = 0.05
+#: The judge's deadlines for the student's client function, each a hang guard (a loaded
+#: machine must not decide what "in time" is): answered, and given up (the allowed
+#: slack past its timeout_s).
+GRADED_ANSWER_S = EVENT_GUARD_S
+GRADED_GIVE_UP_S = 5.0
+GRADED_SLACK_S = 3.0
 
 
 def _fq(node: Node) -> str:
@@ -56,6 +92,47 @@ def call_failing(what: str) -> Iterator[None]:
         raise
     except (ServiceCallError, ParameterError) as exc:
         raise CheckFailed(f"{what} failed: {exc}") from None
+
+
+def _raised_in_kernel(exc: KernelError, name: str) -> str:
+    """What ``exc`` (a callback of node ``name`` raised it in the kernel) says of the
+    likely mistake."""
+    kind, _, detail = str(exc).partition(": ")
+    if kind == "TypeError":  # rclpy refuses to send what the service callback returned
+        return bad_response(TypeError(detail))
+    if kind == "ZeroDivisionError":
+        return divided_by_rate(0.0)
+    return f"a callback of node '{name}' raised {exc}"
+
+
+@contextmanager
+def _explained_clock(name: str) -> Iterator[RemoteClock]:
+    """A ``RemoteClock`` for the kernel's node ``name``; what its callbacks raised comes
+    out as the likely mistake."""
+    try:
+        with remote_clock(judgement(), name) as clock:
+            yield clock
+    except KernelError as exc:
+        raise CheckFailed(_raised_in_kernel(exc, name)) from None
+
+
+#: The clock each judgement's node follows, by its ``running`` stack.
+_clocks: dict[int, RemoteClock] = {}
+
+
+def _followed_clock(node: RemoteNode) -> RemoteClock:
+    """The judge's ``/clock`` that the student's ``node`` (the cell's latest) follows in
+    the kernel, in lockstep: started at the first call and kept to the cell's end (or
+    its next node), so the node answers calls while the judge holds a time and its time
+    only moves on."""
+    j = judgement()
+    key = id(j.running)
+    clock = _clocks.get(key)
+    if clock is None:
+        clock = j.running.enter_context(_explained_clock(node.get_name()))
+        _clocks[key] = clock
+        j.running.callback(_clocks.pop, key, None)
+    return clock
 
 
 def assert_serves(node: Node, service: str, srv_type: type) -> None:
@@ -80,8 +157,13 @@ def assert_service_in(name: str, fq_name: str, own: Any, service: str, srv_type:
 
 
 def assert_tells_time(server: Node, clock: SimClock, at: float) -> None:
-    """Move simulated time to ``at`` s and ask ``what_time`` from a client node of the check."""
-    clock.advance(at - clock.now, step=0.5)
+    """Move simulated time to ``at`` s and ask ``what_time`` from a client node of the check
+    (graded: in one step of the clock the kernel's node follows)."""
+    if is_student(server):
+        remote = _followed_clock(server)  # type: ignore[arg-type]
+        remote.advance(at - remote.now, step=at - remote.now)
+    else:
+        clock.advance(at - clock.now, step=0.5)
     client = Node("what_time_check_client")
     try:
         with call_failing("calling what_time"):
@@ -121,8 +203,10 @@ def _trigger_call(
 
     With ``server_up`` the check first waits until its node has discovered the server
     (another DDS participant can take seconds to meet), so that ``timeout_s`` is spent
-    on the call, not on discovery.
+    on the call, not on discovery. Graded, it runs in the kernel (``_trigger_in_kernel``).
     """
+    if isinstance(call_trigger, Student):
+        return _trigger_in_kernel(call_trigger, service, timeout_s, deadline_s, server_up)
     node = Node("trigger_check_client")
     try:
         if server_up:
@@ -147,6 +231,44 @@ def _trigger_call(
         return outcome.value, outcome.seconds
     finally:
         ros.remove(node)
+
+
+def _trigger_in_kernel(
+    call_trigger: Student, service: str, timeout_s: float, deadline_s: float, server_up: bool
+) -> tuple[Any, float]:
+    """``_trigger_call`` of the student's function in the kernel, run by the agent on a
+    node of its own (``JudgeAgent.call_trigger``)."""
+    got = judgement().kernel.call(
+        "call_trigger",
+        call_trigger.name,
+        service,
+        timeout_s,
+        deadline_s,
+        server_up,
+        DISCOVERY_S,
+        guard=deadline_s + KERNEL_REPLY_GUARD_S,
+    )
+    if not got["discovered"]:
+        raise JudgeTimeout(f"the judge's server on {service} was not discovered from the kernel")
+    where = f"call_trigger(node, {service!r}, {timeout_s})"
+    raised = got["raised"]
+    if raised and raised[0] == "NotImplementedError":
+        raise CheckFailed(f"{where}: this task is not done yet (NotImplementedError)")
+    assert_trigger_returned(
+        where, deadline_s, got["finished"], got["unblocked"], tuple(raised) if raised else None
+    )
+    return _response(got["value"]), float(got["seconds"])
+
+
+def _response(plain: dict[str, Any]) -> Any:
+    """What the kernel's call returned: a Trigger response rebuilt from its fields, None,
+    or what the kernel could only describe."""
+    if plain.get("type") == "NoneType":
+        return None
+    fields = plain.get("fields")
+    if plain.get("type") == "Trigger_Response" and fields is not None:
+        return Trigger.Response(success=bool(fields["success"]), message=str(fields["message"]))
+    return Unreadable(plain["type"], plain.get("repr", repr(plain.get("value"))))
 
 
 def assert_trigger_returned(
@@ -175,18 +297,26 @@ def assert_trigger_returned(
 
 
 def assert_call_trigger_answers(call_trigger: Callable[..., Any], service: str) -> None:
-    """With a server of the check's own up, ``call_trigger`` returns its response."""
+    """With a server of the check's own up, ``call_trigger`` returns its response (graded:
+    one carrying a nonce, which only a real call can return)."""
+    graded = is_student(call_trigger)
+    message = f"answered by the check on {service}"
+    message += f" ({secrets.token_hex(4)})" if graded else ""
 
     def answer(request: Trigger.Request, response: Trigger.Response) -> Trigger.Response:
         response.success = True
-        response.message = f"answered by the check on {service}"
+        response.message = message
         return response
 
     with BackgroundServer(Trigger, service, answer, node_name="trigger_check_server") as server:
         value, _ = _trigger_call(
-            call_trigger, service, timeout_s=2.0, deadline_s=4.0, server_up=True
+            call_trigger,
+            service,
+            timeout_s=2.0,
+            deadline_s=GRADED_ANSWER_S if graded else 4.0,
+            server_up=True,
         )
-    assert_trigger_answered(value, server.calls, service, f"answered by the check on {service}")
+    assert_trigger_answered(value, server.calls, service, message)
 
 
 def assert_trigger_answered(value: Any, calls: int, service: str, message: str) -> None:
@@ -220,14 +350,17 @@ def assert_call_trigger_gives_up(
 
         server = BackgroundServer(Trigger, service, slow, node_name="slow_check_server")
     what = "a server slower than the timeout" if slow_server else "no server"
+    graded = is_student(call_trigger)
+    deadline_s = timeout_s + (GRADED_GIVE_UP_S if graded else 1.5)
     try:
         value, seconds = _trigger_call(
-            call_trigger, service, timeout_s, timeout_s + 1.5, server_up=slow_server
+            call_trigger, service, timeout_s, deadline_s, server_up=slow_server
         )
     finally:
         if server is not None:
             server.close()
-    assert_trigger_gave_up(value, seconds, service, timeout_s, what)
+    slack = GRADED_SLACK_S if graded else 1.0
+    assert_trigger_gave_up(value, seconds, service, timeout_s, what, slack=slack)
 
 
 def assert_trigger_gave_up(
@@ -246,7 +379,7 @@ def assert_trigger_gave_up(
 
 # -- actions -----------------------------------------------------------------------------
 def sim_spinner(
-    clock: SimClock, step: float = SIM_STEP_S
+    clock: SimClock | RemoteClock, step: float = SIM_STEP_S
 ) -> Callable[[Callable[[], bool], float], bool]:
     """A ``spin(condition, timeout)`` for ``run_goal`` that advances simulated time.
 
@@ -276,7 +409,21 @@ def countdown(
     on_ready: Callable[[], None] | None = None,
 ) -> GoalRun:
     """Send a countdown goal to ``countdown`` from a client node of the check
-    (``CLIENT_NODE``); ``on_ready`` as for ``run_goal``."""
+    (``CLIENT_NODE``); ``on_ready`` as for ``run_goal``. Graded, to the node the cell
+    started in the kernel, on the clock it follows (``_followed_clock``)."""
+    j = judging()
+    if j is not None and j.started is not None:
+        return _countdown_in_kernel(_followed_clock(j.started), order, cancel_after, on_feedback)
+    return _countdown(clock, order, cancel_after, on_feedback, on_ready)
+
+
+def _countdown(
+    clock: SimClock | RemoteClock,
+    order: int,
+    cancel_after: int | None,
+    on_feedback: Callable[[Any], None] | None,
+    on_ready: Callable[[], None] | None,
+) -> GoalRun:
     client = Node(CLIENT_NODE)
     try:
         with call_failing("sending a goal to 'countdown'"):
@@ -294,6 +441,44 @@ def countdown(
             )
     finally:
         ros.remove(client)
+
+
+def _countdown_in_kernel(
+    clock: RemoteClock,
+    order: int,
+    cancel_after: int | None,
+    on_feedback: Callable[[Any], None] | None,
+) -> GoalRun:
+    """A countdown goal to the kernel's node: each step waits for the feedback the node
+    said it sent; each feedback is stamped with the node's clock when it was sent (sent
+    while the judge holds a time, it is that time)."""
+    before = len(clock.acked[-1]["feedback_at"])
+    arrived = [0]
+    clock.arrived = lambda published: arrived[0] >= published.get("feedback", 0) - before
+
+    def counted(feedback: Any) -> None:
+        arrived[0] += 1
+        if on_feedback is not None:
+            on_feedback(feedback)
+
+    run = _countdown(
+        clock,
+        order,
+        cancel_after,
+        counted,
+        lambda: wait_until_discovered(
+            clock.acked, clock.node, "/countdown/_action/feedback", CLIENT_NODE, clock.name
+        ),
+    )
+    wait_for(
+        lambda: len(clock.acked[-1]["feedback_at"]) >= before + len(run.feedback),
+        clock.node,
+        what="the kernel did not say when it sent the feedback",
+        guard=LOCKSTEP_GUARD_S,
+    )
+    sent_at = clock.acked[-1]["feedback_at"][before : before + len(run.feedback)]
+    run.feedback_times = [t / 1e9 for t in sent_at]
+    return run
 
 
 def bad_response(exc: Exception) -> str:
@@ -383,6 +568,8 @@ def assert_cancel_honoured(run: GoalRun, rate_hz: float) -> None:
 # -- parameters --------------------------------------------------------------------------
 def assert_declared(node: Node, name: str, default: Any, via: Node | None = None) -> None:
     """``node`` declared ``name`` and it reads ``default``, as seen from another node."""
+    if is_student(node):
+        _followed_clock(node)  # type: ignore[arg-type]
     asker = via or Node("param_check_client")
     try:
         with call_failing(f"reading the parameters of '{node.get_name()}'"):
@@ -404,6 +591,8 @@ def assert_declared(node: Node, name: str, default: Any, via: Node | None = None
 
 def set_from_outside(target: Node, name: str, value: Any, via: Node | None = None) -> Any:
     """Set ``target``'s parameter from a node of the check, as ``ros2 param set`` does."""
+    if is_student(target):
+        _followed_clock(target)  # type: ignore[arg-type]
     setter = via or Node("param_check_client")
     try:
         with call_failing(f"setting '{name}' from outside"):
@@ -423,7 +612,7 @@ def divided_by_rate(bad: float) -> str:
     )
 
 
-def tick_gaps(probe: Probe, clock: SimClock, seconds: float) -> list[float]:
+def tick_gaps(probe: Probe, clock: SimClock | RemoteClock, seconds: float) -> list[float]:
     """Advance ``seconds`` and return the gaps between the messages that arrived."""
     start = len(probe.received.times)
     clock.advance(seconds, step=SIM_STEP_S)
@@ -432,7 +621,19 @@ def tick_gaps(probe: Probe, clock: SimClock, seconds: float) -> list[float]:
 
 
 def assert_rate_follows(node: Node, clock: SimClock, probe: Probe) -> None:
-    """The timer runs at ``rate_hz``, follows a change from outside and refuses rates <= 0."""
+    """The timer runs at ``rate_hz``, follows a change from outside and refuses rates <= 0
+    (graded: on the clock the kernel's node follows, each step held until what the node
+    sent has reached ``probe``)."""
+    if is_student(node) and probe.topic in dict(
+        node.get_publisher_names_and_types_by_node(node.get_name(), node.get_namespace())
+    ):  # what it said it publishes is on the graph before the probe is judged silent
+        judgement().wait_on_graph(node.get_name(), probe.topic, "publisher")
+    probe.wait_for_publisher()
+    if is_student(node):
+        clock = _followed_clock(node)  # type: ignore[arg-type,assignment]
+        clock.arrived = lambda published: (  # type: ignore[attr-defined]
+            len(probe.received.messages) >= published.get(probe.topic, 0)
+        )
     outsider = Node("param_check_client")
     try:
         _assert_rate_follows(node, clock, probe, outsider)
@@ -440,9 +641,10 @@ def assert_rate_follows(node: Node, clock: SimClock, probe: Probe) -> None:
         ros.remove(outsider)
 
 
-def _assert_rate_follows(node: Node, clock: SimClock, probe: Probe, outsider: Node) -> None:
+def _assert_rate_follows(
+    node: Node, clock: SimClock | RemoteClock, probe: Probe, outsider: Node
+) -> None:
     assert_declared(node, "rate_hz", 2.0, via=outsider)
-    probe.wait_for_publisher()
     gaps = tick_gaps(probe, clock, 2.0)
     assert len(gaps) >= 2 and all(abs(g - 0.5) < 0.015 for g in gaps), (
         f"at the default rate_hz=2.0 'ticks' came {gaps} s apart; expected 0.5 s"

@@ -24,7 +24,6 @@ from rclpy.node import Node
 from std_msgs.msg import String
 
 from rosbook.labs.agent import ACK_TOPIC
-from rosbook.labs.lab03 import SIM_STEP_S
 from rosbook.labs.probes import CheckFailed, assert_endpoint
 from rosbook.labs.remote import (
     EVENT_GUARD_S,
@@ -42,6 +41,8 @@ from rosbook.runtime.session import ros
 
 #: Wall-clock seconds after which an unanswered /clock step is published again.
 CLOCK_RETRY_S = 0.2
+#: Simulated time step of the checks' clocks: every period they use is a multiple of it.
+SIM_STEP_S = 0.05
 
 
 def require_endpoint(info: dict[str, Any], topic: str, msg_type: type, kind: str) -> None:
@@ -321,6 +322,11 @@ class RemoteClock:
         """Let the kernel's following end; a callback's exception there comes out as a
         ``KernelError``."""
         end = FOREVER_S
+        if not ros.owns(self.node):  # a fresh ros.sim_clock() of the judge's reset it
+            self.callbacks.executor.shutdown(timeout_sec=0)
+            self.node = ros_node("judge_clock")
+            self.clock = clock_publisher(self.node)
+            self.callbacks = Callbacks([self.node], WakingExecutor())
         self.clock.publish(clock_message(end))
         answered: list[Any] = []
         stopper = threading.Event()

@@ -229,6 +229,11 @@ class RemoteNode:
     ) -> list[tuple[str, list[str]]]:
         return [(t, list(ty)) for t, ty in self._info["subscriptions"]]
 
+    def get_service_names_and_types_by_node(
+        self, name: str, namespace: str
+    ) -> list[tuple[str, list[str]]]:
+        return [(s, list(ty)) for s, ty in self._info["services"]]
+
     def __getattr__(self, attribute: str) -> Any:
         if attribute.startswith("_"):
             raise AttributeError(attribute)
@@ -276,6 +281,10 @@ class Judgement:
     #: What the cell's checks leave to undo when it ends (lab 6's scratch build folder,
     #: used by the checks after the one that made it): closed by the judge.
     ends: ExitStack = field(default_factory=ExitStack)
+    #: What keeps the started node going in the kernel (a lockstep clock it follows,
+    #: which occupies the kernel meanwhile): ended before another node starts and with
+    #: the cell, with the cell's exception if it raised.
+    running: ExitStack = field(default_factory=ExitStack)
 
     def guard(self, generous: float) -> float:
         """``generous`` seconds, or the cell's limit if that is shorter."""
@@ -316,6 +325,7 @@ class Judgement:
         shown = [f"{k}={v!r}" for k, v in kwargs.items()]
         shown += [f"Parameter({k!r}, value={v!r})" for k, v in (parameters or {}).items()]
         call = f"{factory.name}({', '.join(shown)})"
+        self.running.close()  # the kernel is free again for the next node
         try:
             info = self.kernel.call(
                 "start", factory.name, kwargs, sim_time, parameters, not sim_time
@@ -444,7 +454,8 @@ def judging_cell(j: Judgement) -> Iterator[Judgement]:
     """Run a test cell's checks against the kernel of ``j`` inside this block."""
     token = _judging.set(j)
     try:
-        yield j
+        with j.running:
+            yield j
     finally:
         _judging.reset(token)
 
