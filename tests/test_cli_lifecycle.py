@@ -1,23 +1,17 @@
 """``ros2 lifecycle``: upstream's expectations, ported from ros2/ros2cli (jazzy)
 ``ros2lifecycle/test/test_cli.py`` (each test names the one it ports), against
-upstream's fixtures rewritten with rclpy (``tests/fixtures_lifecycle.py``), started cold
-as a process of their own. The commands run in this process (``rosbook.cli.main``)."""
+upstream's fixtures rewritten with rclpy (``tests/fixtures_upstream.py lifecycle``),
+started as a process of their own. The commands run in this process, cold
+(``rosbook.cli.main``)."""
 
 from __future__ import annotations
 
-import os
-import signal
-import subprocess
-import sys
 from collections.abc import Iterator
-from pathlib import Path
 
 import pytest
 
-from rosbook.runtime import graph
-from tests.test_cli_upstream import Run, run_ros2
+from tests.test_cli_upstream import Run, fixture_process, run_ros2
 
-FIXTURES = Path(__file__).with_name("fixtures_lifecycle.py")
 VISIBLE, HIDDEN = "/test_lifecycle_node", "/_hidden_test_lifecycle_node"
 
 #: ``ALL_LIFECYCLE_NODE_TRANSITIONS`` of upstream's test: rcl_lifecycle's transition graph.
@@ -57,24 +51,11 @@ ALL_TRANSITIONS = [
 @pytest.fixture(scope="module", autouse=True)
 def fixture_nodes() -> Iterator[None]:
     """The two lifecycle nodes, up and offering get_state before any command runs."""
-    process = subprocess.Popen(
-        [sys.executable, str(FIXTURES)], stderr=subprocess.PIPE, text=True, start_new_session=True
-    )
-    try:
-        services = {f"{VISIBLE}/get_state", f"{HIDDEN}/get_state"}
-        up = graph.wait_for(
-            lambda g: services <= {name for name, _ in g.get_service_names_and_types()},
-            timeout=60.0,
-        )  # the limit only guards against a hang
-        assert up, "timeout: the lifecycle fixture nodes did not come up"
+    services = {f"{VISIBLE}/get_state", f"{HIDDEN}/get_state"}
+    with fixture_process(
+        "lifecycle", up=lambda g: services <= {name for name, _ in g.get_service_names_and_types()}
+    ):
         yield
-    finally:
-        os.killpg(process.pid, signal.SIGINT)
-        try:
-            process.wait(timeout=30)
-        except subprocess.TimeoutExpired:
-            os.killpg(process.pid, signal.SIGKILL)
-            process.wait()
 
 
 def ok(run: Run) -> list[str]:
