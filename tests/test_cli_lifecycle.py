@@ -6,9 +6,14 @@ started as a process of their own. The commands run in this process, cold
 
 from __future__ import annotations
 
+import threading
 from collections.abc import Iterator
+from typing import Any
 
 import pytest
+import rclpy
+from rclpy.executors import SingleThreadedExecutor
+from rclpy.lifecycle import LifecycleNode, State, TransitionCallbackReturn
 
 from tests.test_cli_upstream import Run, fixture_process, run_ros2
 
@@ -157,3 +162,33 @@ def test_node_lifecycle_goes_round_by_labels_and_by_ids() -> None:
     assert ok(run_ros2("lifecycle", "get", "--include-hidden-nodes", HIDDEN)) == [
         "unconfigured [1]"
     ]
+
+
+class FailingDriver(LifecycleNode):
+    """A lifecycle node whose configuring always fails (its device is missing)."""
+
+    def __init__(self, **kwargs: Any) -> None:
+        super().__init__("failing_driver", **kwargs)
+
+    def on_configure(self, state: State) -> TransitionCallbackReturn:
+        return TransitionCallbackReturn.FAILURE
+
+
+def test_set_says_transitioning_failed_on_stderr_and_exits_0_when_the_node_refuses() -> None:
+    # ros2lifecycle/verb/set.py: a ChangeState answered with success false
+    context = rclpy.Context()
+    rclpy.init(context=context)
+    node = FailingDriver(context=context)
+    executor = SingleThreadedExecutor(context=context)
+    executor.add_node(node)
+    spinner = threading.Thread(target=executor.spin, daemon=True)
+    spinner.start()
+    try:
+        run = run_ros2("lifecycle", "set", "/failing_driver", "configure")
+        assert (run.code, run.out, run.err) == (0, "", "Transitioning failed\n"), run
+        assert ok(run_ros2("lifecycle", "get", "/failing_driver")) == ["unconfigured [1]"]
+    finally:
+        executor.shutdown()
+        node.destroy_node()
+        rclpy.try_shutdown(context=context)
+        spinner.join(timeout=10)
