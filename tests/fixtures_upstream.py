@@ -4,15 +4,19 @@ Rewritten for this project from ``ros2*/test/fixtures/*.py`` of ros2/ros2cli: th
 talker and listener of ros2topic, its repeaters (one message type each), ros2node's
 complex node (also serving ros2action's Fibonacci action as its fixture does), ros2service's
 echo server and ros2param's parameter node. ``tests/test_cli_upstream.py`` starts it
-once and runs the ``ros2`` verbs against it.
+once and runs the ``ros2`` verbs against it. With the argument ``lifecycle`` it runs
+instead ros2lifecycle's fixtures (``simple_lifecycle_node``, once visible and once hidden)
+for ``tests/test_cli_lifecycle.py``.
 """
 
+import sys
 import time
 
 import rclpy
 from geometry_msgs.msg import TwistStamped
 from rclpy.action import ActionServer
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
+from rclpy.lifecycle import Node as LifecycleNode
 from rclpy.node import Node
 from rclpy.parameter import PARAMETER_SEPARATOR_STRING
 from rclpy.qos import qos_profile_system_default
@@ -134,9 +138,9 @@ class ParameterNode(Node):
         )
 
 
-def main(args=None):
-    rclpy.init(args=args)
-    nodes = [
+def cli_nodes():
+    """The nodes of ros2topic, ros2node, ros2action, ros2service and ros2param's tests."""
+    return [
         Talker(),
         Talker("_hidden_talker", "_hidden_chatter"),
         Listener(),
@@ -151,6 +155,16 @@ def main(args=None):
         Node("twin"),
         Node("twin"),
     ]
+
+
+def lifecycle_nodes():
+    """ros2lifecycle's ``simple_lifecycle_node``, once visible and once hidden."""
+    return [LifecycleNode(name) for name in ("test_lifecycle_node", "_hidden_test_lifecycle_node")]
+
+
+def main(args=None):
+    rclpy.init(args=args)
+    nodes = lifecycle_nodes() if sys.argv[1:] == ["lifecycle"] else cli_nodes()
     executor = SingleThreadedExecutor()
     for node in nodes:
         executor.add_node(node)

@@ -39,6 +39,7 @@ VERB_OPTIONS = {
     "param": (),
     "interface": (),
     "pkg": (),
+    "lifecycle": (),
 }
 
 #: (verb, command): (positionals, options), as upstream's jazzy ``add_arguments`` has them.
@@ -173,6 +174,10 @@ UPSTREAM: dict[tuple[str, str], tuple[tuple[str, ...], tuple[str, ...]]] = {
     ("pkg", "list"): ((), ()),
     ("pkg", "prefix"): (("package_name",), ("--share",)),
     ("pkg", "xml"): (("package_name",), ("-t --tag",)),
+    ("lifecycle", "get"): (("node_name",), (*STRATEGY, "--include-hidden-nodes")),
+    ("lifecycle", "list"): (("node_name",), (*STRATEGY, "--include-hidden-nodes", "-a --all")),
+    ("lifecycle", "nodes"): ((), (*STRATEGY, "-a --all", "-c --count-nodes")),
+    ("lifecycle", "set"): (("node_name", "transition"), (*STRATEGY, "--include-hidden-nodes")),
 }
 
 #: Verbs the book uses whose every option ``ros2`` need not have (it says which it

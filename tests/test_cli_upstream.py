@@ -22,9 +22,9 @@ import subprocess
 import sys
 import threading
 import xml.etree.ElementTree as ET
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from pathlib import Path
-from typing import NamedTuple
+from typing import TYPE_CHECKING, NamedTuple
 
 import pytest
 import yaml
@@ -32,6 +32,9 @@ import yaml
 from rosbook import ros
 from rosbook.cli import main
 from rosbook.runtime import graph
+
+if TYPE_CHECKING:
+    from rclpy.node import Node
 
 pytestmark = pytest.mark.filterwarnings("ignore::DeprecationWarning")
 
@@ -81,21 +84,20 @@ def ros2(*argv: str) -> Run:
     return _RUNS[argv]
 
 
-@pytest.fixture(scope="module", autouse=True)
-def fixture_nodes() -> Iterator[None]:
-    """The fixture process, up and discovered before any command runs (the commands
-    start cold; upstream's start after its fixtures too)."""
+@contextlib.contextmanager
+def fixture_process(*argv: str, up: Callable[[Node], bool]) -> Iterator[None]:
+    """``tests/fixtures_upstream.py ARGV`` as a process of its own, until ``up(observer)``
+    holds (the limit only guards against a hang); stopped afterwards."""
     process = subprocess.Popen(
-        [sys.executable, str(FIXTURES)], stderr=subprocess.PIPE, text=True, start_new_session=True
+        [sys.executable, str(FIXTURES), *argv],
+        stderr=subprocess.PIPE,
+        text=True,
+        start_new_session=True,
     )
     try:
-        # the limit only guards against a hang
-        up = graph.wait_for(
-            lambda g: FIXTURE_NODES <= set(g.get_fully_qualified_node_names()), timeout=60.0
+        assert graph.wait_for(up, timeout=60.0), (
+            f"timeout: the fixture nodes {argv} did not come up"
         )
-        assert up, "timeout: the fixture nodes did not come up"
-        ros.reset()
-        _RUNS.clear()
         yield
     finally:
         os.killpg(process.pid, signal.SIGINT)
@@ -104,6 +106,16 @@ def fixture_nodes() -> Iterator[None]:
         except subprocess.TimeoutExpired:
             os.killpg(process.pid, signal.SIGKILL)
             process.wait()
+
+
+@pytest.fixture(scope="module", autouse=True)
+def fixture_nodes() -> Iterator[None]:
+    """The fixture process, up and discovered before any command runs (the commands
+    start cold; upstream's start after its fixtures too)."""
+    with fixture_process(up=lambda g: FIXTURE_NODES <= set(g.get_fully_qualified_node_names())):
+        ros.reset()
+        _RUNS.clear()
+        yield
 
 
 def lines(run: Run) -> list[str]:
