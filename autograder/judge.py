@@ -67,7 +67,6 @@ JUDGED_LABS = {
     "lab02_qos": "autograder.judge_lab02",
     "lab03_services_actions": "autograder.judge_lab03",
     "lab04_urdf": "autograder.judge_lab04",
-    "lab05_diff_drive": "autograder.judge_lab05",
     "lab06_launch_system": "autograder.judge_lab06",
 }
 

@@ -287,17 +287,16 @@ def test_a_gated_time_moves_on_in_the_kernel_once_the_reading_stamped_with_it_is
 
 
 def test_the_judges_drive_is_the_kernels_own_simulation_to_the_bit(session: Session) -> None:
-    """Lab 5's judge runs the simulator and the kernel the student's node, a round trip
-    per tick (the reading carries the time); a student's own run has both in one
-    process (``Simulation``). The robot's path is the same to the bit: the node sees
+    """Lab 5's drive, graded, runs the simulator in the judge and the student's node in
+    the kernel, a round trip per tick (the reading carries the time); a student's own run
+    has both in one process (``Simulation``). The robot's path is the same to the bit: the node sees
     each reading before its timer at that time, in both."""
     import math
 
     import nbformat
     import numpy as np
 
-    from autograder import judge_lab05
-    from rosbook.labs import lab05
+    from rosbook.labs import lab05, remote
     from rosbook.sim.physics import World
 
     cells = nbformat.read(notebook_path("lab05_diff_drive", released=False), as_version=4).cells
@@ -316,18 +315,46 @@ def test_the_judges_drive_is_the_kernels_own_simulation_to_the_bit(session: Sess
         finish=finish,
         parameter_overrides=[own["Parameter"]("goal", value=list(goal))],
     )
-    with judged_kernel(code) as kernel:
-        judged = judge_lab05.drive(
-            judge.Judgement(kernel, Path(".")),
-            "GoToPose",
+    with judged_kernel(code) as kernel, remote.judging_cell(remote.Judgement(kernel, Path("."))):
+        judged = lab05.drive(
+            remote.Student("GoToPose", "class"),
             world=world,
             seconds=25.0,
             finish=finish,
-            name="go_to_pose",
-            goal=goal,
+            parameter_overrides=[own["Parameter"]("goal", value=list(goal))],
         )
     assert judged.seconds == mine.seconds
     assert np.array_equal(judged.path, mine.path)
+
+
+#: Lab 5's kinematics with the lecture robot's wheel radius written in: right for the
+#: visible checks (r = 0.04), wrong for the hidden ones (other robots).
+FIXED_RADIUS = (
+    "def wheel_speeds(v, w, wheel_radius, wheel_separation):\n"
+    "    return (v - w * wheel_separation / 2) / 0.04, (v + w * wheel_separation / 2) / 0.04\n"
+)
+
+
+@pytest.mark.parametrize(
+    ("answer", "verdict"),
+    [
+        ("", None),
+        (FIXED_RADIUS, r"^wheel_speeds\(-0\.4, 0\.3, 0\.05, 0\.3\) returned \(-11\.12, -8\.875\)"),
+    ],
+    ids=["right", "fixed-radius"],
+)
+def test_lab5s_kinematics_cell_runs_in_the_judge_hidden_values_included(
+    tmp_path: Path, answer: str, verdict: str | None
+) -> None:
+    """The test cell as the instructor wrote it runs in the judge, the student's
+    functions called in the kernel: an answer right only for the visible robot fails on
+    the hidden block's first robot, with the lab's message."""
+    cells = {grade_id(c): c.source for c in answered("lab05_diff_drive").cells}
+    with judged_kernel(cells["setup"] + "\n" + cells["wheel_speeds"] + "\n" + answer) as kernel:
+        got = judge_check(kernel, "lab05_diff_drive", "test_wheel_speeds", tmp_path)
+    assert not got.broken and not got.timeout, got
+    said = "passed" if got.passed else got.message
+    assert re.search(verdict or "^passed$", said), said
 
 
 def test_a_gated_reading_alone_carries_its_time_into_the_kernel(session: Session) -> None:
