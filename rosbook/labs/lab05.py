@@ -43,7 +43,7 @@ from rosbook.labs.remote import Judgement, JudgeTimeout, KernelError, is_student
 from rosbook.runtime.session import ros
 from rosbook.sim.diff_drive import body_twist as reference_body_twist
 from rosbook.sim.diff_drive import wheel_speeds as reference_wheel_speeds
-from rosbook.sim.node import DiffDriveSimNode, Simulation
+from rosbook.sim.node import TICK_S, DiffDriveSimNode, SimulatedRobot, Simulation
 from rosbook.sim.physics import DiffDriveSim, Trajectory, World
 
 #: Wall-clock guard of one simulated run in a check (seconds): against hangs only. The
@@ -53,9 +53,6 @@ RUN_HANG_GUARD_S = 600.0
 #: never a verdict on speed (the solution's runs take a few seconds on a quiet machine);
 #: no longer than the grader's limit on a cell (``Judgement.guard``).
 JUDGED_RUN_GUARD_S = 90.0
-#: The simulator's tick (seconds of simulated time between the node's turns), as in
-#: ``Simulation``: the controllers' 50 Hz timers and ``odom`` at 50 Hz.
-TICK_S = 0.02
 
 
 @dataclass
@@ -70,7 +67,7 @@ class Finish:
     tolerance: float
     still: float
 
-    def until(self, sim: Simulation) -> Callable[[], bool]:
+    def until(self, sim: SimulatedRobot) -> Callable[[], bool]:
         """The condition for ``sim.run(seconds, until=...)``: true once the verdict is known."""
         return _Watch(sim, self)
 
@@ -78,7 +75,7 @@ class Finish:
 class _Watch:
     """Follows the robot tick by tick and says when the run's verdict is known."""
 
-    def __init__(self, sim: Simulation, finish: Finish) -> None:
+    def __init__(self, sim: SimulatedRobot, finish: Finish) -> None:
         self.sim = sim
         self.finish = finish
         self.pose = sim.physics.pose
@@ -104,9 +101,10 @@ class _Watch:
 
 @dataclass
 class DriveRun:
-    """What happened when a student's node drove the simulated robot."""
+    """What happened when a student's node drove the simulated robot (when graded,
+    ``node`` is the ``RemoteNode`` of the student's node in the kernel)."""
 
-    sim: Simulation
+    sim: SimulatedRobot
     node: Node
     world: World
     seconds: float
@@ -159,13 +157,13 @@ def drive(
     return DriveRun(sim, node, world, sim.now)
 
 
-class JudgedSim:
+class JudgedSim(SimulatedRobot):
     """The simulated robot in the judge's process (``DriveRun.sim`` of a graded run): the
     physics and its ROS node, stepped by ``judged_drive`` in lockstep with the kernel."""
 
     def __init__(self, world: World, seed: int = 0) -> None:
-        self.physics = DiffDriveSim(world, seed=seed)
-        self.node = DiffDriveSimNode(self.physics)
+        physics = DiffDriveSim(world, seed=seed)
+        super().__init__(physics, DiffDriveSimNode(physics))
         #: Sensor messages published so far, by topic.
         self.sent = {"/odom": 0, "/scan": 0}
         for topic, publisher in (("/odom", self.node.odom_pub), ("/scan", self.node.scan_pub)):
@@ -177,14 +175,6 @@ class JudgedSim:
             self.sent[topic] += 1
 
         return counted
-
-    @property
-    def now(self) -> float:
-        return self.physics.time
-
-    @property
-    def trajectory(self) -> Trajectory:
-        return self.physics.trajectory
 
     def close(self) -> None:
         self.node.destroy_node()
@@ -242,7 +232,7 @@ def judged_drive(
             guard=LOCKSTEP_GUARD_S,
         )
         await_discovered_by(j, sim.node, "/odom", name)  # its first odom is not lost
-        until = finish.until(sim) if finish is not None else lambda: False  # type: ignore[arg-type]
+        until = finish.until(sim) if finish is not None else lambda: False
         with callbacks_explained(), remote_clock(j, name, gate="/odom") as clock:
             wait_until_discovered(clock.acked, clock.node, "/cmd_vel", sim.node.get_name(), name)
 
