@@ -357,6 +357,29 @@ def test_lab5s_kinematics_cell_runs_in_the_judge_hidden_values_included(
     assert re.search(verdict or "^passed$", said), said
 
 
+@pytest.mark.slow  # drives the visible square and the hidden one
+def test_lab5s_hidden_drive_is_the_notebooks_own_line_and_its_figures_come_with_it(
+    tmp_path: Path,
+) -> None:
+    """A SquareDriver that drops its ``node_name`` drives the visible square right; the
+    hidden block's own assert names the node it made, and the verdict carries the path
+    of the run the judge drove (shown in the cell's place)."""
+    lab = "lab05_diff_drive"
+    notebook = answered(
+        lab, **replace_in_answer(lab, "square_driver", "super().__init__(node_name)",
+                                 "super().__init__('square_driver')")
+    )  # fmt: skip
+    code = "\n".join(c.source for c in notebook.cells if grade_id(c) in ("setup", "square_driver"))
+    with judged_kernel(code) as kernel:
+        got = judge_check(kernel, lab, "test_square_driver", tmp_path)
+    assert (got.passed, got.timeout, got.broken) == (False, False, False), got
+    assert got.message == (
+        "SquareDriver(node_name='square_b') made a node named 'square_driver'"
+    ), got.message
+    (shown,) = got.outputs
+    assert base64.b64decode(shown["data"]["image/png"]).startswith(b"\x89PNG")
+
+
 def test_a_gated_reading_alone_carries_its_time_into_the_kernel(session: Session) -> None:
     """With the gate, the judge sends a step's odom only: once the node has taken it, its
     /clock reads the reading's stamp and its timer then acts on that reading."""
