@@ -453,6 +453,23 @@ def lab_module_hook(setup: list[str], name: str) -> Any:
     return None
 
 
+def prepare(assignment_id: str) -> None:
+    """Run the setup cells of ``assignment_id``'s source notebook (a lab with no judge
+    module) and import the modules its checks module names in ``PRELOAD`` (what its
+    figures are made with), while the kernel starts and the student's cells run: the
+    first test cell finds them done. A failure here is the first test cell's to say."""
+    import nbformat
+
+    from autograder.config import SOLUTIONS
+
+    try:
+        source = nbformat.read(SOLUTIONS / assignment_id / f"{assignment_id}.ipynb", 4)
+        for name in lab_module_hook(setup_cells(source), "PRELOAD") or ():
+            importlib.import_module(name)
+    except Exception:  # noqa: S110 - the test cell runs the setup again and says why
+        pass
+
+
 def run_cell(j: remote.Judgement, source: str, setup: list[str]) -> None:
     """Run test cell ``source`` against the kernel of ``j``: the setup's names, and the
     student's names it reads bound to the kernel's (``Judgement.bind``)."""
@@ -581,12 +598,14 @@ def _stdout_for_verdicts() -> Iterator[Any]:
 def serve(assignment_id: str | None = None) -> None:
     """Answer requests until stdin ends. With ``assignment_id`` (the grader's), the
     lab's checks and the modules they show figures with (its ``PRELOAD``) are imported
-    first, while the kernel starts and the student's cells run."""
+    first, while the kernel starts and the student's cells run (``prepare``)."""
     ros.init()
     if assignment_id in JUDGED_LABS:
         module = importlib.import_module(JUDGED_LABS[assignment_id])
         for name in getattr(module, "PRELOAD", ()):
             importlib.import_module(name)
+    elif assignment_id is not None:
+        prepare(assignment_id)
     kernels: dict[str, Kernel] = {}
     with _stdout_for_verdicts() as verdicts:
         try:

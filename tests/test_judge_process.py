@@ -51,6 +51,26 @@ def test_an_assignment_without_judged_checks_starts_no_judge() -> None:
         assert run.process is None
 
 
+def test_a_judge_prepares_a_notebook_labs_setup_and_preload_before_its_first_cell() -> None:
+    """The judge of a lab graded by its notebook alone runs the notebook's setup cells
+    and imports what the lab's checks show figures with (``PRELOAD``) at its start,
+    while the kernel starts, as a judge module's ``PRELOAD`` was: not in the first cell."""
+    import subprocess
+    import sys
+
+    probe = (
+        "import sys\n"
+        "from autograder import judge\n"
+        "before = 'rosbook.viz.twin' in sys.modules, bool(judge._setups)\n"
+        "judge.prepare('lab05_diff_drive')\n"
+        "print(before, ('rosbook.viz.twin' in sys.modules, bool(judge._setups)))\n"
+    )
+    done = subprocess.run(
+        [sys.executable, "-c", probe], capture_output=True, text=True, timeout=300, check=True
+    )
+    assert done.stdout.split("\n")[-2] == "(False, False) (True, True)", done.stdout + done.stderr
+
+
 def test_what_a_check_shows_travels_with_its_verdict(tmp_path: Path) -> None:
     """A figure the judge shows (``Judgement.show``) is a notebook output in the verdict
     the grader reads back: the test cell shows it instead of making it in the kernel."""

@@ -49,6 +49,9 @@ from rosbook.sim.physics import DiffDriveSim, Trajectory, World
 #: Wall-clock guard of one simulated run in a check (seconds): against hangs only. The
 #: grader's cell timeout usually comes first and reports the cell as timed out.
 RUN_HANG_GUARD_S = 600.0
+#: What the graded checks show figures with: the judge imports them while the kernel
+#: starts (``autograder.judge.prepare``), not in the first test cell.
+PRELOAD = ("IPython.core.formatters", "IPython.display", "rosbook.viz.twin")
 #: Wall-clock guard of one graded run (seconds): against a node whose callbacks block,
 #: never a verdict on speed (the solution's runs take a few seconds on a quiet machine);
 #: no longer than the grader's limit on a cell (``Judgement.guard``).
