@@ -354,14 +354,20 @@ FIXED_RADIUS = (
     "    return (v - w * wheel_separation / 2) / 0.04, (v + w * wheel_separation / 2) / 0.04\n"
 )
 
+#: Lab 5's kinematics raising: said as a local run says it (``make check``), once.
+RAISES = (
+    "def wheel_speeds(v, w, wheel_radius, wheel_separation):\n    raise ZeroDivisionError('boom')\n"
+)
+
 
 @pytest.mark.parametrize(
     ("answer", "verdict"),
     [
         ("", None),
         (FIXED_RADIUS, r"^wheel_speeds\(-0\.4, 0\.3, 0\.05, 0\.3\) returned \(-11\.12, -8\.875\)"),
+        (RAISES, r"^wheel_speeds\(0\.2, 0\.0, 0\.04, 0\.4\) raised ZeroDivisionError: boom$"),
     ],
-    ids=["right", "fixed-radius"],
+    ids=["right", "fixed-radius", "raises"],
 )
 def test_lab5s_kinematics_cell_runs_in_the_judge_hidden_values_included(
     tmp_path: Path, answer: str, verdict: str | None
