@@ -66,7 +66,6 @@ from rosbook.runtime.session import ros
 
 #: Labs whose test cells the judge decides, and the module holding their checks.
 JUDGED_LABS = {
-    "lab05_diff_drive": "autograder.judge_lab05",
 }
 
 
@@ -500,6 +499,18 @@ def source_setup(assignment_id: str) -> list[str]:
     return setup_cells(nbformat.read(path, as_version=4)) if path.is_file() else []
 
 
+def prepare(assignment_id: str) -> None:
+    """Import the modules the checks module of ``assignment_id`` names in ``PRELOAD``
+    (what its figures are made with), while the kernel starts and the student's cells
+    run: the first test cell finds them done. A failure here is the first test cell's
+    to say."""
+    try:
+        for name in lab_module_hook(source_setup(assignment_id), "PRELOAD") or ():
+            importlib.import_module(name)
+    except Exception:  # noqa: S110 - the test cell runs the setup again and says why
+        pass
+
+
 def run_cell(j: remote.Judgement, source: str, setup: list[str]) -> None:
     """Run test cell ``source`` against the kernel of ``j``: the setup's names, and the
     student's names it reads bound to the kernel's (``Judgement.bind``)."""
@@ -632,12 +643,14 @@ def _stdout_for_verdicts() -> Iterator[Any]:
 def serve(assignment_id: str | None = None) -> None:
     """Answer requests until stdin ends. With ``assignment_id`` (the grader's), the
     lab's checks and the modules they show figures with (its ``PRELOAD``) are imported
-    first, while the kernel starts and the student's cells run."""
+    first, while the kernel starts and the student's cells run (``prepare``)."""
     ros.init()
     if assignment_id in JUDGED_LABS:
         module = importlib.import_module(JUDGED_LABS[assignment_id])
         for name in getattr(module, "PRELOAD", ()):
             importlib.import_module(name)
+    elif assignment_id is not None:
+        prepare(assignment_id)
     kernels: dict[str, Kernel] = {}
     with _stdout_for_verdicts() as verdicts:
         try:

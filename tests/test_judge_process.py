@@ -52,6 +52,26 @@ def test_a_lab_added_as_a_notebook_alone_is_judged_too() -> None:
             assert run.process is not None and run.process.poll() is None
 
 
+def test_a_judge_prepares_a_notebook_labs_setup_and_preload_before_its_first_cell() -> None:
+    """The judge of a lab graded by its notebook alone runs the notebook's setup cells
+    and imports what the lab's checks show figures with (``PRELOAD``) at its start,
+    while the kernel starts, as a judge module's ``PRELOAD`` was: not in the first cell."""
+    import subprocess
+    import sys
+
+    probe = (
+        "import sys\n"
+        "from autograder import judge\n"
+        "before = 'rosbook.viz.twin' in sys.modules, bool(judge._setups)\n"
+        "judge.prepare('lab05_diff_drive')\n"
+        "print(before, ('rosbook.viz.twin' in sys.modules, bool(judge._setups)))\n"
+    )
+    done = subprocess.run(
+        [sys.executable, "-c", probe], capture_output=True, text=True, timeout=300, check=True
+    )
+    assert done.stdout.split("\n")[-2] == "(False, False) (True, True)", done.stdout + done.stderr
+
+
 def test_what_a_check_shows_travels_with_its_verdict(tmp_path: Path) -> None:
     """A figure the judge shows (``Judgement.show``) is a notebook output in the verdict
     the grader reads back: the test cell shows it instead of making it in the kernel."""
@@ -288,17 +308,16 @@ def test_a_gated_time_moves_on_in_the_kernel_once_the_reading_stamped_with_it_is
 
 
 def test_the_judges_drive_is_the_kernels_own_simulation_to_the_bit(session: Session) -> None:
-    """Lab 5's judge runs the simulator and the kernel the student's node, a round trip
-    per tick (the reading carries the time); a student's own run has both in one
-    process (``Simulation``). The robot's path is the same to the bit: the node sees
+    """Lab 5's drive, graded, runs the simulator in the judge and the student's node in
+    the kernel, a round trip per tick (the reading carries the time); a student's own run
+    has both in one process (``Simulation``). The robot's path is the same to the bit: the node sees
     each reading before its timer at that time, in both."""
     import math
 
     import nbformat
     import numpy as np
 
-    from autograder import judge_lab05
-    from rosbook.labs import lab05
+    from rosbook.labs import lab05, remote
     from rosbook.sim.physics import World
 
     cells = nbformat.read(notebook_path("lab05_diff_drive", released=False), as_version=4).cells
@@ -317,18 +336,75 @@ def test_the_judges_drive_is_the_kernels_own_simulation_to_the_bit(session: Sess
         finish=finish,
         parameter_overrides=[own["Parameter"]("goal", value=list(goal))],
     )
-    with judged_kernel(code) as kernel:
-        judged = judge_lab05.drive(
-            judge.Judgement(kernel, Path(".")),
-            "GoToPose",
+    with judged_kernel(code) as kernel, remote.judging_cell(remote.Judgement(kernel, Path("."))):
+        judged = lab05.drive(
+            remote.Student("GoToPose", "class"),
             world=world,
             seconds=25.0,
             finish=finish,
-            name="go_to_pose",
-            goal=goal,
+            parameter_overrides=[own["Parameter"]("goal", value=list(goal))],
         )
     assert judged.seconds == mine.seconds
     assert np.array_equal(judged.path, mine.path)
+
+
+#: Lab 5's kinematics with the lecture robot's wheel radius written in: right for the
+#: visible checks (r = 0.04), wrong for the hidden ones (other robots).
+FIXED_RADIUS = (
+    "def wheel_speeds(v, w, wheel_radius, wheel_separation):\n"
+    "    return (v - w * wheel_separation / 2) / 0.04, (v + w * wheel_separation / 2) / 0.04\n"
+)
+
+#: Lab 5's kinematics raising: said as a local run says it (``make check``), once.
+RAISES = (
+    "def wheel_speeds(v, w, wheel_radius, wheel_separation):\n    raise ZeroDivisionError('boom')\n"
+)
+
+
+@pytest.mark.parametrize(
+    ("answer", "verdict"),
+    [
+        ("", None),
+        (FIXED_RADIUS, r"^wheel_speeds\(-0\.4, 0\.3, 0\.05, 0\.3\) returned \(-11\.12, -8\.875\)"),
+        (RAISES, r"^wheel_speeds\(0\.2, 0\.0, 0\.04, 0\.4\) raised ZeroDivisionError: boom$"),
+    ],
+    ids=["right", "fixed-radius", "raises"],
+)
+def test_lab5s_kinematics_cell_runs_in_the_judge_hidden_values_included(
+    tmp_path: Path, answer: str, verdict: str | None
+) -> None:
+    """The test cell as the instructor wrote it runs in the judge, the student's
+    functions called in the kernel: an answer right only for the visible robot fails on
+    the hidden block's first robot, with the lab's message."""
+    cells = {grade_id(c): c.source for c in answered("lab05_diff_drive").cells}
+    with judged_kernel(cells["setup"] + "\n" + cells["wheel_speeds"] + "\n" + answer) as kernel:
+        got = judge_check(kernel, "lab05_diff_drive", "test_wheel_speeds", tmp_path)
+    assert not got.broken and not got.timeout, got
+    said = "passed" if got.passed else got.message
+    assert re.search(verdict or "^passed$", said), said
+
+
+@pytest.mark.slow  # drives the visible square and the hidden one
+def test_lab5s_hidden_drive_is_the_notebooks_own_line_and_its_figures_come_with_it(
+    tmp_path: Path,
+) -> None:
+    """A SquareDriver that drops its ``node_name`` drives the visible square right; the
+    hidden block's own assert names the node it made, and the verdict carries the path
+    of the run the judge drove (shown in the cell's place)."""
+    lab = "lab05_diff_drive"
+    notebook = answered(
+        lab, **replace_in_answer(lab, "square_driver", "super().__init__(node_name)",
+                                 "super().__init__('square_driver')")
+    )  # fmt: skip
+    code = "\n".join(c.source for c in notebook.cells if grade_id(c) in ("setup", "square_driver"))
+    with judged_kernel(code) as kernel:
+        got = judge_check(kernel, lab, "test_square_driver", tmp_path)
+    assert (got.passed, got.timeout, got.broken) == (False, False, False), got
+    assert got.message == (
+        "SquareDriver(node_name='square_b') made a node named 'square_driver'"
+    ), got.message
+    (shown,) = got.outputs
+    assert base64.b64decode(shown["data"]["image/png"]).startswith(b"\x89PNG")
 
 
 def test_a_gated_reading_alone_carries_its_time_into_the_kernel(session: Session) -> None:

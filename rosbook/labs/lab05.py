@@ -9,12 +9,19 @@ guards against a hang, is generous, and raises ``TimeoutError`` ("timeout"). Fai
 ``AssertionError`` messages that name the likely mistake; the path plot (and, once per
 lab, the recorded 3D twin) goes into the cell's output so the feedback shows what the
 robot did.
+
+When graded, the same test cells run in the judge (``rosbook.labs.remote``): the
+student's node is a handle, built and spun in the kernel, and the simulator runs in the
+judge, in lockstep with the kernel tick by tick (``drive``'s graded branch); the
+figures go into the judge's verdict (``probes.show``).
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Sequence
+import time
+from collections.abc import Callable, Iterator, Sequence
+from contextlib import contextmanager
 from dataclasses import dataclass
 from typing import Any
 
@@ -25,14 +32,30 @@ from rclpy.node import Node
 
 from rosbook.labs import probes as checks
 from rosbook.labs.deferral import deferrable
+from rosbook.labs.lockstep import (
+    LOCKSTEP_GUARD_S,
+    await_discovered_by,
+    remote_clock,
+    wait_for,
+    wait_until_discovered,
+)
+from rosbook.labs.remote import Judgement, JudgeTimeout, KernelError, is_student, judgement
+from rosbook.runtime.session import ros
 from rosbook.sim.diff_drive import body_twist as reference_body_twist
 from rosbook.sim.diff_drive import wheel_speeds as reference_wheel_speeds
-from rosbook.sim.node import Simulation
-from rosbook.sim.physics import Trajectory, World
+from rosbook.sim.node import TICK_S, DiffDriveSimNode, SimulatedRobot, Simulation
+from rosbook.sim.physics import DiffDriveSim, Trajectory, World
 
 #: Wall-clock guard of one simulated run in a check (seconds): against hangs only. The
 #: grader's cell timeout usually comes first and reports the cell as timed out.
 RUN_HANG_GUARD_S = 600.0
+#: What the graded checks show figures with: the judge imports them while the kernel
+#: starts (``autograder.judge.prepare``), not in the first test cell.
+PRELOAD = ("IPython.core.formatters", "IPython.display", "rosbook.viz.twin")
+#: Wall-clock guard of one graded run (seconds): against a node whose callbacks block,
+#: never a verdict on speed (the solution's runs take a few seconds on a quiet machine);
+#: no longer than the grader's limit on a cell (``Judgement.guard``).
+JUDGED_RUN_GUARD_S = 90.0
 
 
 @dataclass
@@ -47,7 +70,7 @@ class Finish:
     tolerance: float
     still: float
 
-    def until(self, sim: Simulation) -> Callable[[], bool]:
+    def until(self, sim: SimulatedRobot) -> Callable[[], bool]:
         """The condition for ``sim.run(seconds, until=...)``: true once the verdict is known."""
         return _Watch(sim, self)
 
@@ -55,7 +78,7 @@ class Finish:
 class _Watch:
     """Follows the robot tick by tick and says when the run's verdict is known."""
 
-    def __init__(self, sim: Simulation, finish: Finish) -> None:
+    def __init__(self, sim: SimulatedRobot, finish: Finish) -> None:
         self.sim = sim
         self.finish = finish
         self.pose = sim.physics.pose
@@ -81,9 +104,10 @@ class _Watch:
 
 @dataclass
 class DriveRun:
-    """What happened when a student's node drove the simulated robot."""
+    """What happened when a student's node drove the simulated robot (when graded,
+    ``node`` is the ``RemoteNode`` of the student's node in the kernel)."""
 
-    sim: Simulation
+    sim: SimulatedRobot
     node: Node
     world: World
     seconds: float
@@ -110,7 +134,15 @@ def drive(
     """Start the simulator in ``world``, build the student's node, run ``seconds``.
 
     With ``finish`` the run ends as soon as its verdict is known (see :class:`Finish`).
+    When graded, ``factory`` is a handle to the student's class: the node runs in the
+    kernel and the simulator here (``judged_drive``).
     """
+    if is_student(factory):
+        if args:
+            raise TypeError("drive: pass a node's arguments by name when it is graded")
+        return judged_drive(
+            judgement(), factory, world=world, seconds=seconds, seed=seed, finish=finish, **kwargs
+        )
     sim = Simulation(world, seed=seed)
     node = checks.make_node(factory, *args, **kwargs)
     checks.node_publishes(node, "cmd_vel", Twist)
@@ -126,6 +158,122 @@ def drive(
         ) from None
     assert_commanded(sim.node.commands, seconds)
     return DriveRun(sim, node, world, sim.now)
+
+
+class JudgedSim(SimulatedRobot):
+    """The simulated robot in the judge's process (``DriveRun.sim`` of a graded run): the
+    physics and its ROS node, stepped by ``judged_drive`` in lockstep with the kernel."""
+
+    def __init__(self, world: World, seed: int = 0) -> None:
+        physics = DiffDriveSim(world, seed=seed)
+        super().__init__(physics, DiffDriveSimNode(physics))
+        #: Sensor messages published so far, by topic.
+        self.sent = {"/odom": 0, "/scan": 0}
+        for topic, publisher in (("/odom", self.node.odom_pub), ("/scan", self.node.scan_pub)):
+            publisher.publish = self._counting(topic, publisher.publish)  # type: ignore[method-assign]
+
+    def _counting(self, topic: str, publish: Callable[[Any], None]) -> Callable[[Any], None]:
+        def counted(msg: Any) -> None:
+            publish(msg)
+            self.sent[topic] += 1
+
+        return counted
+
+    def close(self) -> None:
+        self.node.destroy_node()
+
+
+@contextmanager
+def callbacks_explained() -> Iterator[None]:
+    """A callback of the student's node that raised in the kernel: the lab's message."""
+    try:
+        yield
+    except KernelError as exc:
+        raise checks.CheckFailed(callback_raised(str(exc))) from None
+
+
+def judged_drive(
+    j: Judgement,
+    factory: Any,
+    *,
+    world: World,
+    seconds: float,
+    seed: int = 0,
+    finish: Finish | None = None,
+    **kwargs: Any,
+) -> DriveRun:
+    """``drive`` when graded: the student's ``factory(**kwargs)`` is built in the kernel
+    on simulated time (its ``parameter_overrides``, the test cell's own ``Parameter``
+    objects, cross as plain names and values) and drives the judge's simulated robot,
+    tick by tick as ``Simulation`` runs it in one process:
+
+    1. the physics steps one tick and the sensors are published; the ``odom`` reading
+       carries the new time: once the node's subscription has taken it, the kernel
+       moves the node's ``/clock`` to its stamp (``JudgeAgent.follow_clock``'s gate), so
+       the node's callback sees the reading before its timers at that time run;
+    2. once the kernel says the node's due timers ran, and every ``cmd_vel`` it says it
+       published has arrived, the simulator takes the commands and the next tick begins.
+
+    So the node sees what it would see in the kernel's own simulator, the path is the
+    same to the bit, and only hang guards (a timeout, never wrong) use the wall clock."""
+    ros.reset()
+    sim = JudgedSim(world, seed=seed)
+    try:
+        overrides = kwargs.pop("parameter_overrides", None) or ()
+        parameters = {p.name: p.value for p in overrides} or None
+        node = j.start_node(factory, sim_time=True, parameters=parameters, **kwargs)
+        checks.node_publishes(node, "cmd_vel", Twist)
+        checks.node_subscribes(node, "odom", Odometry)
+        name = node.get_name()
+        wait_for(
+            lambda: (
+                sim.node.odom_pub.get_subscription_count() > 0
+                and sim.node.cmd_sub.get_publisher_count() > 0
+            ),
+            sim.node,
+            what=f"node '{name}' and the simulator did not find each other on odom and cmd_vel",
+            guard=LOCKSTEP_GUARD_S,
+        )
+        await_discovered_by(j, sim.node, "/odom", name)  # its first odom is not lost
+        until = finish.until(sim) if finish is not None else lambda: False
+        with callbacks_explained(), remote_clock(j, name, gate="/odom") as clock:
+            wait_until_discovered(clock.acked, clock.node, "/cmd_vel", sim.node.get_name(), name)
+
+            def commands_arrived(published: dict[str, int]) -> bool:
+                sim.node.take_commands()
+                return sim.node.commands >= published.get("/cmd_vel", 0)
+
+            def odom_taken() -> bool:
+                return clock.acked[-1]["taken"].get("/odom", 0) >= sim.sent["/odom"]
+
+            clock.arrived = commands_arrived
+            advance = False
+            guard = j.guard(JUDGED_RUN_GUARD_S)
+            give_up = time.monotonic() + guard
+            while sim.now < seconds - 1e-9 and not (advance and until()):
+                if time.monotonic() > give_up:
+                    raise JudgeTimeout(
+                        blocked(
+                            f"simulating {seconds:g} s took longer than {guard:g} s "
+                            f"of wall time (stopped at t={sim.now:.2f} s)."
+                        )
+                    )
+                if advance:
+                    sim.node.advance(TICK_S)
+                    sim.node.publish_sensors()
+                    clock.advance(sim.now - clock.now, clock.node, step=sim.now - clock.now)
+                else:  # the first reading, at the time the node starts at
+                    sim.node.publish_sensors(force=True)
+                    clock.wait_for(
+                        odom_taken,
+                        what=f"node '{name}' did not take odom at t = {sim.now:g} s",
+                        guard=LOCKSTEP_GUARD_S,
+                    )
+                advance = True
+        assert_commanded(sim.node.commands, seconds)
+        return DriveRun(sim, node, world, sim.now)  # type: ignore[arg-type]
+    finally:
+        sim.close()
 
 
 def blocked(reason: str) -> str:
@@ -158,7 +306,7 @@ def path_image(
     marks: Sequence[tuple[float, float]] = (),
 ) -> Any:
     """The run's path as a small PNG (an ``IPython.display.Image``): what ``show_path``
-    shows, and what the grader shows for the runs it judges itself."""
+    shows."""
     from IPython.display import Image
 
     from rosbook.sim.plot import plot_path, png
@@ -174,9 +322,7 @@ def show_path(
     marks: Sequence[tuple[float, float]] = (),
 ) -> None:
     """Display the run's path as a small PNG in the cell's output (the feedback)."""
-    from IPython.display import display
-
-    display(path_image(run, title, goal, marks))
+    checks.show(path_image(run, title, goal, marks))
 
 
 #: Frames per simulated second of the twin shown in the feedback (small and smooth enough).
@@ -197,9 +343,7 @@ def twin_scene(run: DriveRun, height: int = 320) -> Any:
 
 def show_twin(run: DriveRun, height: int = 320) -> None:
     """Display the run's recorded 3D twin (``twin_scene``) in the cell's output."""
-    from IPython.display import display
-
-    display(twin_scene(run, height))
+    checks.show(twin_scene(run, height))
 
 
 # -- kinematics ------------------------------------------------------------------------
@@ -209,6 +353,8 @@ def _pair(fn: Callable[..., Any], call: str, *args: float) -> tuple[float, float
     try:
         got = fn(*args)
     except Exception as exc:
+        if is_student(fn):  # the judge's call says what the kernel raised, or timed out
+            raise
         raise AssertionError(f"{call} raised {type(exc).__name__}: {exc}") from None
     try:
         a, b = got

@@ -202,7 +202,30 @@ def yaw_of(msg: Odometry) -> float:
     return math.atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z))
 
 
-class Simulation:
+#: Simulated seconds between a ``Simulation``'s turns of the nodes (the robot's drivers'
+#: 50 Hz timers and ``odom`` at 50 Hz).
+TICK_S = 0.02
+
+
+class SimulatedRobot:
+    """A simulated robot (``physics``) and its driver node: where it is and has been.
+    ``Simulation`` steps it in lockstep with the session's nodes; a grader's judge steps
+    one in lockstep with a node in another process (``rosbook.labs.lab05``)."""
+
+    def __init__(self, physics: DiffDriveSim, node: DiffDriveSimNode) -> None:
+        self.physics = physics
+        self.node = node
+
+    @property
+    def now(self) -> float:
+        return self.physics.time
+
+    @property
+    def trajectory(self) -> Trajectory:
+        return self.physics.trajectory
+
+
+class Simulation(SimulatedRobot):
     """A fresh simulated world on ``/clock``, run in lockstep with the session's nodes.
 
     Making one resets ``session`` (default: the notebook's) onto simulated time (every
@@ -216,7 +239,7 @@ class Simulation:
         world: World | None = None,
         *,
         seed: int = 0,
-        tick: float = 0.02,
+        tick: float = TICK_S,
         geometry: RobotGeometry | None = None,
         laser: LaserSpec | None = None,
         dt: float = 1.0 / 200.0,
@@ -234,24 +257,19 @@ class Simulation:
         self._time_source = self.session.sim_clock()
         self.clock = self._time_source.clock
         self.tick = tick
-        self.physics = DiffDriveSim(
+        physics = DiffDriveSim(
             world, geometry, laser, dt=dt, seed=seed, wheel_noise=wheel_noise, scan_noise=scan_noise
         )
-        self.node = DiffDriveSimNode(
-            self.physics, cmd_timeout=cmd_timeout, odom_rate=odom_rate, scan_rate=scan_rate
+        super().__init__(
+            physics,
+            DiffDriveSimNode(
+                physics, cmd_timeout=cmd_timeout, odom_rate=odom_rate, scan_rate=scan_rate
+            ),
         )
         self._own = (self.node, self.clock.node)
         self._started = False
         self._ticks = 0
         self.wall_time = 0.0
-
-    @property
-    def now(self) -> float:
-        return self.physics.time
-
-    @property
-    def trajectory(self) -> Trajectory:
-        return self.physics.trajectory
 
     def run(
         self,
