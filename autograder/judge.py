@@ -9,13 +9,16 @@ on its ``sys.path``), that sees the student's code only through what it cannot f
 - ROS traffic: it is started on the kernel's DDS network (the sandbox's), publishes the
   stimuli and ``/clock`` itself and records what arrives on its own subscriptions;
 - return values: it asks the kernel, over a Jupyter client of its own, to build and
-  spin the student's node (the agent below) and compares what comes back;
+  spin the student's node (the agent, ``rosbook.labs.agent``) and decodes what comes
+  back as plain data;
 - programs: it starts the student's scripts itself, inside the kernel's sandbox and as
-  the student (``Judgement.student_command``), and reads their exit codes.
+  the student (``student_wrap``), and reads their exit codes.
 
-Hidden parameters and expected values live here and in the labs' judge modules, never
-in the kernel. Protocol: one JSON request per line on stdin
-(``{"assignment": ..., "check": <grade_id>, "connection_file": ..., "folder": ...}``),
+What it runs is each test cell's own source, as the instructor's notebook holds it
+(hidden tests included), after the notebook's setup cells; the student's names the cell
+reads are handles into the kernel (``rosbook.labs.remote``). Hidden parameters live only
+there, never in the kernel. Protocol: one JSON request per line on stdin
+(``{"assignment", "check": <grade_id>, "connection_file", "folder", "source", "setup"}``),
 one JSON ``Verdict`` per line on stdout. The judge never imports the student's code.
 """
 
@@ -28,8 +31,8 @@ import os
 import sys
 import time
 import traceback
-from collections.abc import Callable, Iterator, Sequence
-from contextlib import AbstractContextManager, contextmanager
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
@@ -41,32 +44,9 @@ from autograder import sandbox
 from autograder.config import SOLUTIONS
 from autograder.feedback import is_test_cell
 from rosbook.labs import remote
-from rosbook.labs.probes import (
-    CheckFailed,
-    ScriptRun,
-    StillRunning,
-    TimedOut,
-    rclpy_raced,
-    run_script,
-)
-from rosbook.labs.remote import (  # noqa: F401 (what the labs' judge modules import from here)
-    EVENT_GUARD_S,
-    KERNEL_REPLY_GUARD_S,
-    JudgeTimeout,
-    Kernel,
-    KernelError,
-    Unreadable,
-    clock_message,
-    clock_publisher,
-    drain,
-    own_domain,
-    ros_node,
-)
+from rosbook.labs.probes import TimedOut, rclpy_raced
+from rosbook.labs.remote import JudgeTimeout, Kernel
 from rosbook.runtime.session import ros
-
-#: Labs whose test cells the judge decides, and the module holding their checks.
-JUDGED_LABS = {
-}
 
 
 @dataclass
@@ -84,51 +64,6 @@ class Verdict:
     outputs: list[dict[str, Any]] = field(default_factory=list)
 
 
-def judged_checks(assignment_id: str) -> dict[str, Callable[[Judgement], None]]:
-    """The judge's checks of ``assignment_id`` by grade_id (empty: a lab with no judge
-    module, whose test cells all score nothing: ``make labs`` refuses it)."""
-    if assignment_id not in JUDGED_LABS:
-        return {}
-    return importlib.import_module(JUDGED_LABS[assignment_id]).CHECKS  # type: ignore[no-any-return]
-
-
-def missing_check(assignment_id: str, grade_id: str) -> str | None:
-    """Why the judge cannot decide test cell ``grade_id`` of ``assignment_id`` (the lab
-    is not registered, or its module has no check of that name), or None if it can."""
-    module = JUDGED_LABS.get(assignment_id)
-    if module is None:
-        return (
-            f"the lab has no judge module ({assignment_id} is not in JUDGED_LABS, "
-            "autograder/judge.py)"
-        )
-    if grade_id not in judged_checks(assignment_id):
-        return f"{module}.CHECKS has no check named {grade_id!r}"
-    return None
-
-
-def _unjudged_by_module(assignment_id: str, notebook: NotebookNode) -> list[str]:
-    """The test cells of a lab with a judge module that it has no check for."""
-    found = []
-    for cell in notebook.cells:
-        if is_test_cell(cell):
-            grade_id = cell.metadata.nbgrader.get("grade_id", "")
-            why = missing_check(assignment_id, grade_id)
-            if why is not None:
-                found.append(f"{assignment_id}: test cell {grade_id}: {why}")
-    return found
-
-
-def holds_participant(assignment_id: str) -> bool:
-    """Whether the judge of ``assignment_id`` keeps one DDS participant from its first
-    check to its end (its module's ``HOLD_PARTICIPANT``): a judge whose checks start
-    and stop other processes' nodes (lab 6's launches) never makes or destroys one while
-    their discovery is in flight, where Fast DDS's teardown hang waits (below)."""
-    module = JUDGED_LABS.get(assignment_id)
-    return module is not None and bool(
-        getattr(importlib.import_module(module), "HOLD_PARTICIPANT", False)
-    )
-
-
 def shared_env(assignment_id: str, folder: Path) -> dict[str, str]:
     """What the judge of ``assignment_id`` makes once for a whole grading run (the
     ``share(folder)`` of its judge module, or of the checks module its notebook's setup
@@ -136,11 +71,7 @@ def shared_env(assignment_id: str, folder: Path) -> dict[str, str]:
     it, read-only, to every sandbox of the run (``sandbox.SHARED_ENV``); empty for a lab
     that shares nothing, or whose share failed (each submission then makes its own, and
     the class is graded as before). The grader makes it, never a student's code."""
-    module = JUDGED_LABS.get(assignment_id)
-    if module is not None:
-        share = getattr(importlib.import_module(module), "share", None)
-    else:
-        share = lab_module_hook(source_setup(assignment_id), "share")
+    share = lab_module_hook(source_setup(assignment_id), "share")
     if share is None:
         return {}
     folder.mkdir(parents=True, exist_ok=True)
@@ -152,151 +83,6 @@ def shared_env(assignment_id: str, folder: Path) -> dict[str, str]:
         print(said, file=sys.stderr, flush=True)
         return {}
     return {sandbox.SHARED_ENV: str(folder)}
-
-
-# -- the kernel side -----------------------------------------------------------------
-
-# -- what a check sees ---------------------------------------------------------------
-
-
-@dataclass
-class Judgement:
-    """One check's view: the kernel, the submission's folder, and the judge's nodes."""
-
-    kernel: Kernel
-    folder: Path
-    #: The kernel's sandbox (its first process), whose folder ``folder`` is seen through.
-    sandbox_pid: int | None = None
-    #: What the check showed (``show``), as nbformat outputs for the verdict.
-    outputs: list[dict[str, Any]] = field(default_factory=list)
-    #: The grader's limit on one cell (its ``--timeout``), if given: a run of the
-    #: student's code that only a blocking callback makes slow is given no longer.
-    cell_timeout: float | None = None
-
-    def guard(self, generous: float) -> float:
-        """``generous`` seconds, or the cell's limit if that is shorter."""
-        return min(generous, self.cell_timeout or generous)
-
-    def show(self, shown: Any) -> None:
-        """Show ``shown`` (anything IPython displays: a figure, a scene) in the test
-        cell's output, as a cell showing it in the kernel would: a figure of a run the
-        judge made, so the kernel need not make it again."""
-        from IPython.core.formatters import DisplayFormatter
-
-        data, metadata = DisplayFormatter().format(shown)
-        self.outputs.append({"output_type": "display_data", "data": data, "metadata": metadata})
-
-    def start_node(
-        self,
-        factory: str,
-        *,
-        sim_time: bool = False,
-        parameters: dict[str, Any] | None = None,
-        **kwargs: Any,
-    ) -> dict[str, Any]:
-        """Build ``factory(**kwargs)`` in the kernel (``parameters``: its overrides); what
-        it says it is (name, endpoints)."""
-        shown = [f"{k}={v!r}" for k, v in kwargs.items()]
-        shown += [f"Parameter({k!r}, value={v!r})" for k, v in (parameters or {}).items()]
-        call = f"{factory}({', '.join(shown)})"
-        try:
-            info = self.kernel.call("start", factory, kwargs, sim_time, parameters)
-        except KernelError as exc:
-            if "NotImplementedError" in str(exc):
-                raise CheckFailed(
-                    f"{call}: this task is not done yet (NotImplementedError)"
-                ) from None
-            raise CheckFailed(f"{call} raised {exc}") from None
-        # One participant of the judge's for the check's sub-checks (Session.
-        # hold_participant), from now to the check's end (``judge_one`` releases it):
-        # made after the kernel's node, as the judge's first node always was, so a kernel
-        # making its participant again (a switch of time source) or running the
-        # student's cells between checks never has one of the judge's about. Held from
-        # the judge's start, it left the sandboxed kernel unable to send its replies
-        # (zmq: "Socket operation on non-socket"), every time; the cause is not known.
-        ros.hold_participant()
-        return info  # type: ignore[no-any-return]
-
-    def value(self, name: str) -> Any:
-        """The kernel's global ``name`` (numbers, strings, sequences of numbers)."""
-        try:
-            return _python_value(self.kernel.call("value", name))
-        except KernelError as exc:
-            if "KeyError" in str(exc):
-                raise CheckFailed(
-                    f"{name} is not defined: write it in its task's cell and run it"
-                ) from None
-            raise
-
-    def call_function(self, name: str, *args: Any) -> Any:
-        """What the student's function ``name(*args)`` returns, called in the kernel."""
-        shown = ", ".join(repr(a) if not isinstance(a, str) else "<URDF>" for a in args)
-        try:
-            return _python_value(self.kernel.call("call_function", name, list(args)))
-        except KernelError as exc:
-            if "KeyError" in str(exc) and name in str(exc):
-                raise CheckFailed(f"{name} is not defined: run its task's cell") from None
-            if "NotImplementedError" in str(exc):
-                raise CheckFailed(
-                    f"{name}({shown}): this task is not done yet (NotImplementedError)"
-                ) from None
-            raise CheckFailed(f"{name}({shown}) raised {exc}") from None
-
-    def wait_on_graph(self, name: str, topic: str, kind: str) -> None:
-        """Wait until the judge sees node ``name``'s ``kind`` ("publisher"/"subscription")
-        of ``topic`` on the DDS graph, so no message of the check is sent into the void."""
-        watcher = ros_node("judge_graph")
-        lookup = (
-            watcher.get_publisher_names_and_types_by_node
-            if kind == "publisher"
-            else watcher.get_subscriber_names_and_types_by_node
-        )
-
-        def seen() -> bool:
-            try:
-                return any(t == topic for t, _ in lookup(name, "/"))
-            except Exception:  # NodeNameNonExistentError until discovery finds it
-                return False
-
-        try:
-            if not ros.spin_until(seen, watcher, timeout=EVENT_GUARD_S):
-                raise JudgeTimeout(f"node '{name}' did not appear on the ROS graph")
-        finally:
-            ros.remove(watcher)
-
-    def script(
-        self, name: str, *ros_args: str, domain: int | None = None
-    ) -> AbstractContextManager[ScriptRun]:
-        """Start the student's program ``name`` (``python name --ros-args ...``) from the
-        judge, so its exit code is the judge's to read; it is gone afterwards. ``domain``:
-        the ROS domain it runs in (default: the judge's)."""
-        env = None if domain is None else {**os.environ, "ROS_DOMAIN_ID": str(domain)}
-        return run_script(
-            self.folder / name, *ros_args, cwd=self.folder, wrap=self.student_command, env=env
-        )
-
-    def student_command(self, argv: Sequence[str]) -> list[str]:
-        """``argv`` (paths as the judge sees them) run where the student's code runs: in
-        the kernel's sandbox, as the student. Never as the judge."""
-        if self.sandbox_pid is None:  # an unsandboxed kernel (the student's own self-check)
-            return list(argv)
-        outside = f"/proc/{self.sandbox_pid}/root"
-
-        def inside(path: str) -> str:
-            return path[len(outside) :] if path.startswith(outside + "/") else path
-
-        return sandbox.enter_argv(
-            self.sandbox_pid, inside(str(self.folder)), [inside(a) for a in argv]
-        )
-
-
-def _python_value(plain: dict[str, Any]) -> Any:
-    if "repr" in plain:
-        return Unreadable(plain["type"], plain["repr"])
-    if "items" in plain:
-        return frozenset(plain["items"])
-    value = plain["value"]
-    return tuple(value) if isinstance(value, list) else value
 
 
 # Two ways honest code fails on Ctrl-C; a run that met either is tried once more.
@@ -312,7 +98,7 @@ def _python_value(plain: dict[str, Any]) -> Any:
 #   rmw_fastrtps_cpp destroys a context's participant with its last node: a judge whose
 #   nodes all went while another process's nodes started or stopped met it too (lab 6:
 #   "the judge gave no verdict" on a two-robot launch); such a judge holds its
-#   participant (``holds_participant``).
+#   participant (its checks module's ``HOLD_PARTICIPANT``).
 
 
 # -- a test cell, run as the instructor wrote it ---------------------------------------
@@ -422,8 +208,6 @@ def unjudged_cells(assignment_id: str, notebook: NotebookNode) -> list[str]:
     """``<lab>: test cell <grade_id>: <why>`` for each test cell of ``notebook`` (the
     lab's source) that the judge cannot run outside the kernel: one that is not Python,
     or uses a name that neither the setup cells nor the student's cells define."""
-    if assignment_id in JUDGED_LABS:
-        return _unjudged_by_module(assignment_id, notebook)
     defined: set[str] = set()
     for cell in notebook.cells:
         if cell.cell_type == "code" and not is_test_cell(cell):
@@ -589,43 +373,10 @@ def judge_cell(request: dict[str, Any], kernel: Kernel) -> Verdict:
 
 
 def judge_one(request: dict[str, Any], kernels: dict[str, Kernel]) -> Verdict:
-    grade_id = request["check"]
     kernel = kernels.get(request["connection_file"])
     if kernel is None:
         kernel = kernels[request["connection_file"]] = Kernel(request["connection_file"])
-    if request["assignment"] not in JUDGED_LABS:
-        return judge_cell(request, kernel)
-    check = judged_checks(request["assignment"]).get(grade_id)
-    if check is None:
-        return Verdict(grade_id, False, f"the judge has no check named {grade_id}", broken=True)
-    j = Judgement(
-        kernel,
-        Path(request["folder"]),
-        request.get("sandbox_pid"),
-        cell_timeout=request.get("cell_timeout"),
-    )
-    held = holds_participant(request["assignment"])
-    try:
-        if held:
-            ros.hold_participant()
-        check(j)
-        return Verdict(grade_id, True, outputs=j.outputs)
-    except (JudgeTimeout, StillRunning, TimeoutError) as exc:  # a hang guard, not a verdict
-        said = str(exc).removeprefix("timeout: ")
-        return Verdict(grade_id, False, f"timeout: {said}", timeout=True, outputs=j.outputs)
-    except AssertionError as exc:
-        return Verdict(grade_id, False, str(exc), outputs=j.outputs)
-    except Exception:  # the judge's own failure: say so, never pass
-        tail = "\n".join(traceback.format_exc().strip().splitlines()[-4:])
-        return Verdict(grade_id, False, f"the judge failed on this check:\n{tail}", broken=True)
-    finally:
-        ros.reset()
-        if not held:
-            ros.hold_participant(False)
-        try:
-            kernel.call("stop", guard=10.0)
-        except Exception:  # noqa: S110 - the kernel's state is the student's
-            pass
+    return judge_cell(request, kernel)
 
 
 @contextmanager
@@ -645,11 +396,7 @@ def serve(assignment_id: str | None = None) -> None:
     lab's checks and the modules they show figures with (its ``PRELOAD``) are imported
     first, while the kernel starts and the student's cells run (``prepare``)."""
     ros.init()
-    if assignment_id in JUDGED_LABS:
-        module = importlib.import_module(JUDGED_LABS[assignment_id])
-        for name in getattr(module, "PRELOAD", ()):
-            importlib.import_module(name)
-    elif assignment_id is not None:
+    if assignment_id is not None:
         prepare(assignment_id)
     kernels: dict[str, Kernel] = {}
     with _stdout_for_verdicts() as verdicts:

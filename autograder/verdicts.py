@@ -37,11 +37,8 @@ from nbgrader.preprocessors import ClearHiddenTests, Execute
 from autograder import sandbox
 from autograder.feedback import is_test_cell
 from autograder.judge import (
-    JUDGED_LABS,
     Verdict,
     calls_checks,
-    judged_checks,
-    missing_check,
     setup_cells,
 )
 from autograder.kernels import CappedExecute, not_run_output
@@ -58,22 +55,15 @@ class Judging:
     """One submission's judge process and the verdicts it gave."""
 
     assignment_id: str
-    checks: set[str]
     verdicts: dict[str, Verdict] = field(default_factory=dict)
     process: subprocess.Popen[str] | None = None
-    #: The judge runs every test cell's own source (a lab without a judge module).
-    every_cell: bool = False
     #: Test cells whose run in the kernel calls the lab's checks (deferred there): only
     #: such a cell's pass in the kernel is a forged one.
     deferring: set[str] = field(default_factory=set)
     #: Test cells whose run in the kernel ended without an error (a pass, there).
     kernel_passed: set[str] = field(default_factory=set)
-    #: The test cells met so far that the judge decides.
+    #: The test cells met so far (the judge decides each).
     cells: set[str] = field(default_factory=set)
-
-    def judges(self, grade_id: str) -> bool:
-        """Whether the judge decides test cell ``grade_id``."""
-        return self.every_cell or grade_id in self.checks
 
     def start(self) -> None:
         """Start this submission's judge unless it runs: its interpreter, rclpy and ROS
@@ -159,11 +149,9 @@ _current: Judging | None = None
 def judging(assignment_id: str) -> Iterator[Judging]:
     """Judge the test cells of ``assignment_id`` for the nbgrader run inside this block."""
     global _current
-    checks = set(judged_checks(assignment_id))
-    _current = Judging(assignment_id, checks, every_cell=assignment_id not in JUDGED_LABS)
+    _current = Judging(assignment_id)
     try:
-        if _current.checks or _current.every_cell:
-            _current.start()
+        _current.start()
         yield _current
     finally:
         _current.stop()
@@ -172,9 +160,9 @@ def judging(assignment_id: str) -> Iterator[Judging]:
 
 class JudgedExecute(CappedExecute):  # type: ignore[misc]
     """nbgrader's Execute (output capped, as for every kernel), with the judge's verdict
-    taken before each test cell. The kernel gets a test cell without its hidden tests
-    (``sent_to_kernel``); a test cell the judge has no check for is never scored by
-    its run in the kernel: its verdict says so, and it scores nothing."""
+    taken before each test cell: the judge runs the instructor's cell (hidden tests and
+    all), the kernel gets it without its hidden tests (``sent_to_kernel``), and its run
+    in the kernel never scores."""
 
     def preprocess_cell(
         self, cell: NotebookNode, resources: dict[str, Any], index: int
@@ -184,14 +172,10 @@ class JudgedExecute(CappedExecute):  # type: ignore[misc]
         grade_id = cell.get("metadata", {}).get("nbgrader", {}).get("grade_id")
         sent = sent_to_kernel(cell)
         busy = self.busy_with is not None
-        if _current.judges(grade_id):
-            _current.cells.add(grade_id)
-        if not _current.every_cell or calls_checks(sent.source, setup_cells(self.nb)):
+        _current.cells.add(grade_id)
+        if calls_checks(sent.source, setup_cells(self.nb)):
             _current.deferring.add(grade_id)
-        if not _current.judges(grade_id):
-            why = missing_check(_current.assignment_id, grade_id)
-            verdict = Verdict(grade_id, False, f"not graded: {why}", broken=True)
-        elif self.busy_with is not None:  # the judge would wait on the kernel for nothing
+        if self.busy_with is not None:  # the judge would wait on the kernel for nothing
             verdict = Verdict(
                 grade_id,
                 False,
@@ -218,8 +202,7 @@ class JudgedExecute(CappedExecute):  # type: ignore[misc]
         shown = [nbformat.from_dict(output) for output in verdict.outputs]
         # a check that timed out in the judge would only time out again in the kernel
         if (
-            _current.judges(grade_id)
-            and self.busy_with is None
+            self.busy_with is None
             and sent.source.strip()
             and (shown or verdict.timeout or not shows_figures(sent.source))
         ):
@@ -228,9 +211,9 @@ class JudgedExecute(CappedExecute):  # type: ignore[misc]
         ran = sent.get("outputs", [])
         if sent.source.strip() and not any(o.get("output_type") == "error" for o in ran):
             _current.kernel_passed.add(grade_id)
-        if _current.judges(grade_id) and busy:  # not run, in the kernel nor in the judge
+        if busy:  # not run, in the kernel nor in the judge
             outputs = list(ran)
-        elif _current.judges(grade_id) and any(map(is_deferral, ran)):
+        elif any(map(is_deferral, ran)):
             outputs = []
             for output in ran:
                 outputs += [*shown, verdict_output(verdict)] if is_deferral(output) else [output]
@@ -318,7 +301,7 @@ def apply_verdicts(
     with Gradebook(f"sqlite:///{gradebook}") as gb:
         sub = gb.find_submission_notebook(notebook, assignment_id, student_id)
         for grade in sub.grades:
-            if grade.name not in run.verdicts and grade.name not in run.checks:
+            if grade.name not in run.verdicts and grade.name not in run.cells:
                 if grade.auto_score is None:  # not a test cell: graded by hand
                     continue
             verdict = run.verdicts.get(grade.name)

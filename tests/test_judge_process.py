@@ -22,6 +22,7 @@ import pytest
 
 from autograder import judge, sandbox
 from autograder.verdicts import judging
+from rosbook.labs import remote
 from rosbook.runtime.kernels import UnixSocketKernelManager
 from rosbook.runtime.session import Session
 from tests.labtools import (
@@ -48,7 +49,7 @@ def test_a_lab_added_as_a_notebook_alone_is_judged_too() -> None:
     every test cell decided by the judge, which starts with the submission."""
     with sandbox.Network() as network, sandbox.using(network):
         with judging("lab99_new") as run:
-            assert run.judges("test_anything")
+            assert run.cells == set()  # none met yet; each will be judged
             assert run.process is not None and run.process.poll() is None
 
 
@@ -83,7 +84,7 @@ def test_what_a_check_shows_travels_with_its_verdict(tmp_path: Path) -> None:
 
     from rosbook.sim.plot import png
 
-    j = judge.Judgement(kernel=None, folder=tmp_path)  # type: ignore[arg-type]
+    j = remote.Judgement(kernel=None, folder=tmp_path)  # type: ignore[arg-type]
     j.show(Image(png(plt.figure(figsize=(1, 1)))))
     sent = json.dumps(asdict(judge.Verdict("test_x", False, "wrong", outputs=j.outputs)))
     (output,) = judge.Verdict(**json.loads(sent)).outputs
@@ -112,7 +113,7 @@ def test_closing_a_kernel_sends_it_nothing(tmp_path: Path) -> None:
             }
         )
     )
-    kernel = judge.Kernel(str(connection))
+    kernel = remote.Kernel(str(connection))
     kernel.agent_ready = True  # as after a check: the agent was defined
     sent: list[dict] = []
     kernel.client.session.send = lambda *a, **k: sent.append({"args": a})  # type: ignore[method-assign]
@@ -128,7 +129,7 @@ class Following:
     def __init__(
         self,
         session: Session,
-        kernel: judge.Kernel,
+        kernel: remote.Kernel,
         name: str,
         until: float,
         gate: str | None = None,
@@ -139,7 +140,7 @@ class Following:
         from rosbook.labs.lockstep import read_ack
 
         self.session, self.kernel, self.until = session, kernel, until
-        self.node = judge.ros_node(name)
+        self.node = remote.ros_node(name)
         self.acked = [read_ack("")]
         self.node.create_subscription(
             String, ACK_TOPIC, lambda m: self.acked.append(read_ack(m.data)), 10
@@ -150,7 +151,7 @@ class Following:
     def finish(self) -> list[Any]:
         """Publish ``/clock`` at ``until`` until the kernel answers; its answer, in a list,
         once its ack of ``until`` has arrived too."""
-        clock = judge.clock_publisher(self.node)
+        clock = remote.clock_publisher(self.node)
         target = int(round(self.until * 1e9))
         done: list[Any] = []
         waiter = threading.Thread(
@@ -158,7 +159,7 @@ class Following:
         )
         waiter.start()
         while waiter.is_alive():
-            clock.publish(judge.clock_message(self.until))
+            clock.publish(remote.clock_message(self.until))
             self.session.spin_until(lambda: not waiter.is_alive(), self.node, timeout=0.2)
         assert self.session.spin_until(
             lambda: self.acked[-1]["now"] >= target, self.node, timeout=60
@@ -212,13 +213,13 @@ def test_a_kernel_says_when_it_has_discovered_the_judges_publisher(
 
     with judged_kernel(QUEUED_SUBSCRIBER + IN_ORDER) as kernel:
         assert kernel.call("start", "CounterSubscriber", {}, False)["name"] == "counter_subscriber"
-        sender = judge.ros_node("judge_sender")
+        sender = remote.ros_node("judge_sender")
         try:
             assert not kernel.call("await_writers", "/counter", ["00" * 16], 0.2)
             pub = sender.create_publisher(Int64, "/counter", 10)
             assert session.spin_until(lambda: pub.get_subscription_count() > 0, sender, timeout=60)
             await_discovered_by(
-                judge.Judgement(kernel, tmp_path), sender, "/counter", "counter_subscriber"
+                remote.Judgement(kernel, tmp_path), sender, "/counter", "counter_subscriber"
             )
             (mine,) = sender.get_publishers_info_by_topic("/counter")
             assert kernel.call("await_writers", "/counter", [bytes(mine.endpoint_gid).hex()], 0.0)
@@ -282,7 +283,7 @@ def test_a_gated_time_moves_on_in_the_kernel_once_the_reading_stamped_with_it_is
         run = Following(session, kernel, "judge_odom", until=0.2, gate="/odom")
         odom = run.node.create_publisher(Odometry, "/odom", 10)
         assert session.spin_until(lambda: odom.get_subscription_count() > 0, run.node, timeout=60)
-        clock = judge.clock_publisher(run.node)
+        clock = remote.clock_publisher(run.node)
         step = 100_000_000
 
         def acked_step() -> bool:
@@ -291,14 +292,14 @@ def test_a_gated_time_moves_on_in_the_kernel_once_the_reading_stamped_with_it_is
         # the time first: held (a kernel without the gate acks it at once, its timer
         # having run without the reading); /clock is best effort, so sent again
         for _ in range(10):
-            clock.publish(judge.clock_message(0.1))
+            clock.publish(remote.clock_message(0.1))
             if session.spin_until(acked_step, run.node, timeout=0.2):
                 break
         msg = Odometry()
         msg.header.stamp.nanosec = step
         odom.publish(msg)
         for _ in range(300):
-            clock.publish(judge.clock_message(0.1))
+            clock.publish(remote.clock_message(0.1))
             if session.spin_until(acked_step, run.node, timeout=0.2):
                 break
         assert acked_step(), "timeout: the kernel did not ack t = 0.1 s after its odom"
@@ -430,7 +431,7 @@ def test_a_gated_reading_alone_carries_its_time_into_the_kernel(session: Session
 
 
 @contextmanager
-def judged_kernel(code: str, cwd: Path | None = None) -> Iterator[judge.Kernel]:
+def judged_kernel(code: str, cwd: Path | None = None) -> Iterator[remote.Kernel]:
     """A kernel that ran ``code`` (a student's cells) in ``cwd``, as the judge reaches it."""
     km = UnixSocketKernelManager()
     km.start_kernel(**({"cwd": str(cwd)} if cwd else {}))
@@ -442,7 +443,7 @@ def judged_kernel(code: str, cwd: Path | None = None) -> Iterator[judge.Kernel]:
         reply = setup.execute_interactive(code, timeout=60)
         assert reply["content"]["status"] == "ok", reply["content"]
         setup.stop_channels()
-        kernel = judge.Kernel(km.connection_file)
+        kernel = remote.Kernel(km.connection_file)
         yield kernel
     finally:
         if kernel is not None:
@@ -451,7 +452,7 @@ def judged_kernel(code: str, cwd: Path | None = None) -> Iterator[judge.Kernel]:
 
 
 def judge_check(
-    kernel: judge.Kernel,
+    kernel: remote.Kernel,
     assignment: str,
     check: str,
     folder: Path,
@@ -738,12 +739,12 @@ def test_a_judge_failure_passes_through_the_labs_checks_as_it_was_said() -> None
     no answer) through as it said it, not as the student's function raising."""
     from rosbook.labs import lab02, probes
 
-    assert judge.CheckFailed is probes.CheckFailed
+    assert remote.CheckFailed is probes.CheckFailed
 
     def predict(*args: Any) -> list[int]:
-        raise judge.KernelError("the kernel gave no answer to the judge")
+        raise remote.KernelError("the kernel gave no answer to the judge")
 
-    with pytest.raises(judge.KernelError, match="^the kernel gave no answer to the judge$"):
+    with pytest.raises(remote.KernelError, match="^the kernel gave no answer to the judge$"):
         lab02.assert_model_matches(predict, [(2, 1.7, 3, 6)])
 
 
