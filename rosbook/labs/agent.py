@@ -50,21 +50,6 @@ def student(name: str) -> Any:
     return get_ipython().user_ns[name]
 
 
-def plain(value: Any) -> dict[str, Any]:
-    """``value`` as JSON: numbers, strings and sequences of them; else its repr."""
-    if isinstance(value, (bool, int, float, str)) or value is None:
-        return {"type": type(value).__name__, "value": value}
-    if hasattr(value, "dtype") and getattr(value, "shape", None) == ():
-        return {"type": "float", "value": float(value)}
-    if isinstance(value, (list, tuple)) or hasattr(value, "tolist"):
-        items = list(value.tolist() if hasattr(value, "tolist") else value)
-        if all(isinstance(v, (bool, int, float)) for v in items):
-            return {"type": type(value).__name__, "value": [float(v) for v in items]}
-    if isinstance(value, (set, frozenset)) and all(isinstance(v, str) for v in value):
-        return {"type": type(value).__name__, "items": sorted(value)}
-    return {"type": type(value).__name__, "repr": repr(value)[:300]}
-
-
 def data(value: Any, depth: int = 0) -> dict[str, Any]:
     """``value`` as JSON the judge decodes itself (``rosbook.labs.remote.decode``):
     numbers, strings, None, and lists, tuples and string-keyed dicts of them; else its
@@ -429,12 +414,6 @@ class JudgeAgent:
                 sub.callback = callback
             self.ackers.append(acker)  # destroyed by stop(): the last ack must get out
 
-    def spin(self, seconds: float) -> None:
-        end = time.monotonic() + seconds
-        while time.monotonic() < end:
-            self.executor.spin_once(timeout_sec=0.01)
-        self._answer(None)
-
     def await_writers(self, topic: str, gids: list[str], guard: float) -> None:
         """Wait until this participant has discovered every publisher ``gids`` on
         ``topic`` (the node's subscription takes nothing from one it has not: what that
@@ -463,12 +442,6 @@ class JudgeAgent:
             self.executor.spin_once(timeout_sec=0.01)
         value = getattr(self.node, attribute, None)
         self._answer(list(value) if isinstance(value, (list, tuple)) else repr(value))
-
-    def value(self, name: str) -> None:
-        self._answer(plain(student(name)))
-
-    def call_function(self, name: str, args: list[Any]) -> None:
-        self._answer(plain(student(name)(*args)))
 
     def stop(self) -> None:
         self._pause()
@@ -572,7 +545,7 @@ class JudgeAgent:
         finished = outcome.finished
         unblocked = not finished and ros.spin_until(lambda: outcome.finished, node, timeout=1.0)
         value = outcome.value
-        shown = plain(value)
+        shown = data(value)
         if hasattr(value, "get_fields_and_field_types"):
             fields = {k: getattr(value, k) for k in value.get_fields_and_field_types()}
             if all(isinstance(v, (bool, int, float, str)) for v in fields.values()):
