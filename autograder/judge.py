@@ -284,12 +284,14 @@ def source_setup(assignment_id: str) -> list[str]:
 
 
 def prepare(assignment_id: str) -> None:
-    """Import the modules the checks module of ``assignment_id`` names in ``PRELOAD``
-    (what its figures are made with), while the kernel starts and the student's cells
-    run: the first test cell finds them done. A failure here is the first test cell's
-    to say."""
+    """Run the setup cells of ``assignment_id``'s source notebook and import the modules
+    its checks module names in ``PRELOAD`` (what its figures are made with), while the
+    kernel starts and the student's cells run: the first test cell finds them done. A
+    failure here is the first test cell's to say."""
     try:
-        for name in lab_module_hook(source_setup(assignment_id), "PRELOAD") or ():
+        setup = source_setup(assignment_id)
+        setup_namespace(setup)
+        for name in lab_module_hook(setup, "PRELOAD") or ():
             importlib.import_module(name)
     except Exception:  # noqa: S110 - the test cell runs the setup again and says why
         pass

@@ -403,3 +403,24 @@ def test_doctor_summarises_its_checks_as_upstream(fixture_node, capsys) -> None:
     assert "Subscriber without publisher detected on /unheard." in err
     assert re.search(r"^\d/4 check\(s\) failed$", out, re.M)
     assert re.search(r"^Failed modules: .*\btopic\b", out, re.M)
+
+
+def test_a_qos_option_never_changes_rclpys_preset_for_the_rest_of_the_process() -> None:
+    """``--qos-profile sensor_data --qos-reliability reliable`` gives the command its own
+    profile: rclpy's ``qos_profile_sensor_data`` (the preset itself) stays best effort
+    for every other node of a notebook that ran the command."""
+    import argparse
+
+    from rclpy.qos import QoSReliabilityPolicy, qos_profile_sensor_data
+
+    from rosbook.cli import verb_topic
+
+    args = argparse.Namespace(
+        qos_profile="sensor_data", qos_reliability="reliable", qos_history=None,
+        qos_durability=None, qos_liveliness=None, qos_depth=3,
+        qos_liveliness_lease_duration_seconds=None,
+    )  # fmt: skip
+    made = verb_topic._qos(args)
+    assert (made.reliability, made.depth) == (QoSReliabilityPolicy.RELIABLE, 3)
+    assert qos_profile_sensor_data.reliability == QoSReliabilityPolicy.BEST_EFFORT
+    assert qos_profile_sensor_data.depth == 5

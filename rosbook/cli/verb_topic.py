@@ -5,6 +5,7 @@
 from __future__ import annotations
 
 import argparse
+import copy
 import math
 import time
 from collections import deque
@@ -237,7 +238,7 @@ def echo_qos(node: Node, topic: str, args: argparse.Namespace) -> QoSProfile:
     if every publisher is, with upstream's notes when only some are."""
     if any(getattr(args, f"qos_{key}") is not None for key in QOS_OVERRIDES):
         return _qos(args)
-    profile = QoSPresetProfiles.get_from_short_key(args.qos_profile)
+    profile = _preset(args.qos_profile)
     publishers = node.get_publishers_info_by_topic(topic)
     if not publishers:
         return profile
@@ -558,9 +559,16 @@ def add_qos_arguments(parser: argparse.ArgumentParser, verb: str, default: str) 
     )
 
 
+def _preset(name: str) -> QoSProfile:
+    """A copy of rclpy's preset profile ``name``: the preset itself is rclpy's global
+    (``qos_profile_sensor_data`` is ``QoSPresetProfiles.SENSOR_DATA.value``), which a
+    command run in this process must never change for the others."""
+    return copy.copy(QoSPresetProfiles.get_from_short_key(name))
+
+
 def _qos(args: argparse.Namespace) -> QoSProfile:
     """The preset ``--qos-profile`` with the ``--qos-*`` settings given on top (as upstream)."""
-    profile = QoSPresetProfiles.get_from_short_key(args.qos_profile)
+    profile = _preset(args.qos_profile)
     for policy, kind in (
         ("history", QoSHistoryPolicy),
         ("reliability", QoSReliabilityPolicy),

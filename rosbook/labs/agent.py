@@ -416,23 +416,47 @@ class JudgeAgent:
 
     def await_writers(self, topic: str, gids: list[str], guard: float) -> None:
         """Wait until this participant has discovered every publisher ``gids`` on
-        ``topic`` (the node's subscription takes nothing from one it has not: what that
-        one sent before is lost, not late); whether it has, within ``guard`` seconds."""
-        self._await_known(self.node.get_publishers_info_by_topic, topic, gids, guard)
+        ``topic`` and the node's subscriptions on it have matched a publisher (the node
+        takes nothing from one it has not: what that one sent before is lost, not late);
+        whether they have, within ``guard`` seconds."""
+        subscriptions = [s for s in self.node.subscriptions if s.topic_name == topic]
+        self._await_known(
+            self.node.get_publishers_info_by_topic,
+            topic,
+            gids,
+            guard,
+            lambda: all(s.get_publisher_count() > 0 for s in subscriptions),
+        )
 
     def await_readers(self, topic: str, gids: list[str], guard: float) -> None:
         """Wait until this participant has discovered every subscription ``gids`` on
-        ``topic`` (the node's publisher sends only to those it knows)."""
-        self._await_known(self.node.get_subscriptions_info_by_topic, topic, gids, guard)
+        ``topic`` and the node's publishers on it have matched one (a publisher sends
+        only to those it knows)."""
+        publishers = [p for p in self.node.publishers if p.topic_name == topic]
+        self._await_known(
+            self.node.get_subscriptions_info_by_topic,
+            topic,
+            gids,
+            guard,
+            lambda: all(p.get_subscription_count() > 0 for p in publishers),
+        )
 
-    def _await_known(self, infos: Any, topic: str, gids: list[str], guard: float) -> None:
-        end = time.monotonic() + guard
-        while True:
-            known = {bytes(e.endpoint_gid).hex() for e in infos(topic)}
-            if set(gids) <= known or time.monotonic() > end:
-                break
-            time.sleep(0.01)
-        self._answer(set(gids) <= known)
+    def _await_known(
+        self, infos: Any, topic: str, gids: list[str], guard: float, matched: Any
+    ) -> None:
+        spinning = self._pause()  # the graph and the match counts, read between spins
+        try:
+            end = time.monotonic() + guard
+            while True:
+                known = {bytes(e.endpoint_gid).hex() for e in infos(topic)}
+                done = set(gids) <= known and matched()
+                if done or time.monotonic() > end:
+                    break
+                time.sleep(0.01)
+            self._answer(done)
+        finally:
+            if spinning:
+                self._resume()
 
     def spin_until_length(self, attribute: str, length: int, guard: float) -> None:
         end = time.monotonic() + guard
