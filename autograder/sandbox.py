@@ -400,6 +400,7 @@ def _ro_sources() -> list[str]:
     """Host folders a sandbox sees read-only, at the same path."""
     paths = {"/usr", sys.prefix, sys.base_prefix, str(ROOT / "rosbook")}
     paths |= {str(ROOT / "launch"), str(ROOT / "launch_ros")}  # lab 6's launch files import them
+    paths.add(str(ROOT / "tf2_ros"))  # lab 7's nodes import it
     # Of the grader only what starts a sandbox: never the judge's hidden check parameters.
     starting = ("__init__.py", "sandbox.py", "cgroups.py")
     paths |= {str(ROOT / "autograder" / name) for name in starting}
