@@ -9,14 +9,7 @@ from pathlib import Path
 import nbformat
 import pytest
 
-from tests.labtools import (
-    answered,
-    extra_cell,
-    grade,
-    replace_in_answer,
-    submit,
-    with_round_trip,
-)
+from tests.labtools import answered, extra_cell, grade_lab, replace_in_answer
 from tests.labtools import feedback as feedback_html
 
 #: The whole lab graded as a class: minutes (`make test-fast` leaves it out).
@@ -28,76 +21,54 @@ LAB = "lab07_frames"
 FORGE = "get_ipython().input_transformers_post.append(lambda lines: ['pass\\n'])"
 
 
-def wrong_frames() -> nbformat.NotebookNode:
-    """The static transform's parent and child swapped; odometry sent in frame 'world'."""
-    fixes = replace_in_answer(
-        LAB,
-        "static_frame",
-        "t.header.frame_id = parent\n        t.child_frame_id = child",
-        "t.header.frame_id = child\n        t.child_frame_id = parent",
-    )
-    fixes.update(
-        replace_in_answer(
-            LAB,
-            "odom_broadcaster",
-            "t.header.frame_id = msg.header.frame_id",
-            "t.header.frame_id = 'world'",
-        )  # fmt: skip
-    )
+def changed(*changes: tuple[str, str, str]) -> nbformat.NotebookNode:
+    """The solution with each (grade_id, old, new) replaced in that answer."""
+    fixes: dict[str, str] = {}
+    for gid, old, new in changes:
+        if gid not in fixes:
+            fixes.update(replace_in_answer(LAB, gid, old, new))
+        else:
+            assert old in fixes[gid], f"{old!r} not in the answer {gid}"
+            fixes[gid] = fixes[gid].replace(old, new)
     return answered(LAB, **fixes)
 
 
-def wrong_times() -> nbformat.NotebookNode:
-    """The static rotation by twice the yaw; odometry stamped with the node's clock."""
-    fixes = replace_in_answer(
-        LAB,
-        "static_frame",
-        "math.sin(yaw / 2.0)",
-        "math.sin(yaw)",
-    )
-    fixes["static_frame"] = fixes["static_frame"].replace("math.cos(yaw / 2.0)", "math.cos(yaw)")
-    fixes.update(
-        replace_in_answer(
-            LAB,
-            "odom_broadcaster",
-            "t.header.stamp = msg.header.stamp",
-            "t.header.stamp = self.get_clock().now().to_msg()",
-        )  # fmt: skip
-    )
-    return answered(LAB, **fixes)
+#: The static transform's parent and child swapped; odometry sent in frame 'world'.
+WRONG_FRAMES = (
+    ("static_frame", "t.header.frame_id = parent", "t.header.frame_id = child"),
+    ("static_frame", "t.child_frame_id = child", "t.child_frame_id = parent"),
+    ("odom_broadcaster", "t.header.frame_id = msg.header.frame_id", "t.header.frame_id = 'world'"),
+)
 
+#: The static rotation by twice the yaw; odometry stamped with the node's clock.
+WRONG_TIMES = (
+    ("static_frame", "math.sin(yaw / 2.0)", "math.sin(yaw)"),
+    ("static_frame", "math.cos(yaw / 2.0)", "math.cos(yaw)"),
+    ("odom_broadcaster", "t.header.stamp = msg.header.stamp",
+     "t.header.stamp = self.get_clock().now().to_msg()"),
+)  # fmt: skip
 
-def fixed_names() -> nbformat.NotebookNode:
-    """Odometry always sent as odom -> base_link (the visible case's names); a lookup of
-    the target in the source, not the source in the target."""
-    fixes = replace_in_answer(
-        LAB, "odom_broadcaster", "t.header.frame_id = msg.header.frame_id\n"
-        "        t.child_frame_id = msg.child_frame_id",
-        "t.header.frame_id = 'odom'\n        t.child_frame_id = 'base_link'",
-    )  # fmt: skip
-    fixes.update(
-        replace_in_answer(
-            LAB,
-            "frame_locator",
-            "lookup_transform(target_frame, source_frame, Time())",
-            "lookup_transform(source_frame, target_frame, Time())",
-        )  # fmt: skip
-    )
-    return answered(LAB, **fixes)
+#: Odometry always sent as odom -> base_link (the visible case's names); a lookup of the
+#: target in the source, not the source in the target.
+FIXED_NAMES = (
+    ("odom_broadcaster", "t.header.frame_id = msg.header.frame_id", "t.header.frame_id = 'odom'"),
+    ("odom_broadcaster", "t.child_frame_id = msg.child_frame_id", "t.child_frame_id = 'base_link'"),
+    ("frame_locator", "lookup_transform(target_frame, source_frame, Time())",
+     "lookup_transform(source_frame, target_frame, Time())"),
+)  # fmt: skip
 
 
 @pytest.fixture(scope="module")
 def graded(
     tmp_path_factory: pytest.TempPathFactory, round_trip: tuple[dict, Path]
 ) -> tuple[dict, Path]:
-    root = tmp_path_factory.mktemp("submissions")
-    submit(root, "wrong_frames", LAB, wrong_frames())
-    submit(root, "wrong_times", LAB, wrong_times())
-    submit(root, "fixed_names", LAB, fixed_names())
-    submit(root, "forged", LAB, extra_cell(answered(LAB), FORGE))
-    out = tmp_path_factory.mktemp("out")
-    rows = grade(root, out, assignment_id=LAB, workers=2, cell_timeout=120)
-    return with_round_trip((rows, out), round_trip, LAB, ("right", "untouched"))
+    submissions = {
+        "wrong_frames": changed(*WRONG_FRAMES),
+        "wrong_times": changed(*WRONG_TIMES),
+        "fixed_names": changed(*FIXED_NAMES),
+        "forged": extra_cell(answered(LAB), FORGE),
+    }
+    return grade_lab(tmp_path_factory, round_trip, LAB, submissions, cell_timeout=120)
 
 
 def feedback(out: Path, student: str) -> str:
