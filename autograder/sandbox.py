@@ -3,8 +3,9 @@
 A sandbox is ``bwrap --unshare-all`` (its own user, PID, network, IPC, UTS, cgroup and
 mount namespaces) with ``--die-with-parent`` and ``--new-session``. Inside, the student
 is uid 1000 ("student") and sees only: the system's ``/usr`` (read-only), the Python
-installation and the venv (read-only), the project's ``rosbook/`` and
-``autograder/sandbox.py`` and ``cgroups.py`` (read-only; never the judge's check parameters,
+installation and the venv (read-only), the project's ``rosbook/``, its front ends for
+upstream's ``launch``, ``launch_ros`` and ``tf2_ros``, and ``autograder/sandbox.py`` and
+``cgroups.py`` (read-only; never the judge's check parameters,
 ``solutions/``, ``tests/``, gradebooks or other submissions), a
 private home and ``/tmp`` (tmpfs, ``Limits.disk`` bytes each), a copy of the notebook's
 folder in the home, the grading run's shared folder if it has one (read-only,
@@ -400,6 +401,7 @@ def _ro_sources() -> list[str]:
     """Host folders a sandbox sees read-only, at the same path."""
     paths = {"/usr", sys.prefix, sys.base_prefix, str(ROOT / "rosbook")}
     paths |= {str(ROOT / "launch"), str(ROOT / "launch_ros")}  # lab 6's launch files import them
+    paths.add(str(ROOT / "tf2_ros"))  # lab 7's nodes import it
     # Of the grader only what starts a sandbox: never the judge's hidden check parameters.
     starting = ("__init__.py", "sandbox.py", "cgroups.py")
     paths |= {str(ROOT / "autograder" / name) for name in starting}

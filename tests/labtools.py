@@ -17,6 +17,7 @@ import shutil
 from pathlib import Path
 
 import nbformat
+import pytest
 
 from autograder.config import LABS, SOLUTIONS
 from autograder.course import (  # noqa: F401 (the tests import them from here too)
@@ -118,6 +119,23 @@ def grade_rows(out: Path) -> dict[tuple[str, str], dict[str, str]]:
     """The rows of ``out``'s grades.csv by (student, lab)."""
     with open(out / "grades.csv") as f:
         return {(r["student_id"], r["assignment_id"]): r for r in csv.DictReader(f)}
+
+
+def grade_lab(
+    tmp_path_factory: pytest.TempPathFactory,
+    round_trip: tuple[dict, Path],
+    lab: str,
+    submissions: dict[str, nbformat.NotebookNode],
+    cell_timeout: int,
+) -> tuple[dict, Path]:
+    """``submissions`` of ``lab`` (notebooks by student) graded as a class, with the run's
+    round trip rows ("right", "untouched") beside them (``with_round_trip``)."""
+    root = tmp_path_factory.mktemp("submissions")
+    for student, notebook in submissions.items():
+        submit(root, student, lab, notebook)
+    out = tmp_path_factory.mktemp("out")
+    rows = grade(root, out, assignment_id=lab, workers=2, cell_timeout=cell_timeout)
+    return with_round_trip((rows, out), round_trip, lab, ("right", "untouched"))
 
 
 def with_round_trip(
