@@ -238,3 +238,15 @@ def test_sh_waits_for_every_pattern_and_says_timeout_when_one_never_comes(tmp_pa
     assert "timeout: 1 of 1 lines matching 'ready', 0 of 1 lines matching 'never'" in str(
         caught.value.output
     )
+
+
+def test_sh_shows_a_commands_output_without_terminal_colours(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """CMake colours its warnings in a terminal: a page would show them as yellow on
+    white (too little contrast to read), so what ``sh`` prints has no colour codes."""
+    from rosbook.launch.workspace import sh
+
+    done = sh("printf '\\033[33mCMake Warning\\033[0m: old\\n'", cwd=tmp_path)
+    assert "\x1b[33m" in done.stdout  # the command's own output keeps them
+    assert capsys.readouterr().out.splitlines()[-1] == "CMake Warning: old"

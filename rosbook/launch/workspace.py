@@ -589,10 +589,14 @@ def sh(
     done = _run_in_terminal(command, cwd, env, timeout, ctrl_c_after, times)
     if ctrl_c_after is not None and ESCALATED in done.stdout:
         done = _run_in_terminal(command, cwd, env, timeout, ctrl_c_after, times)
-    if echo:
+    if echo:  # without a terminal's colours: a page shows them as low-contrast text
         print(f"$ {command}")
-        print(done.stdout, end="")
+        print(ANSI_ESCAPES.sub("", done.stdout), end="")
     return done
+
+
+#: A terminal's colour and cursor codes (CMake colours its warnings in a terminal).
+ANSI_ESCAPES = re.compile(r"\x1b\[[0-9;?]*[ -/]*[@-~]")
 
 
 def _run_in_terminal(
