@@ -113,9 +113,11 @@ def test_unit_tests_alone_miss_the_node_bugs(graded: tuple[dict, Path]) -> None:
 
 def test_cells_turned_into_pass_in_the_kernel_score_nothing(graded: tuple[dict, Path]) -> None:
     """The kernel runs every cell as ``pass``: no test file is written, and the judge,
-    which runs the test cells itself, gives no point for one."""
+    which runs the test cells itself, gives no point for one; the passes the kernel
+    claimed are flagged."""
     row, page = result(graded, "hostile")
-    assert (row["status"], row["score"]) == ("ok", "0")
+    assert (row["status"], row["score"]) == ("tampered", "0")
+    assert "Checks that passed only inside your notebook" in page
     assert "test_wall_stopper.py does not exist" in page
 
 
