@@ -10,6 +10,8 @@ import nbformat
 import pytest
 
 from autograder.course import strip_markers
+from rosbook.labs import lab08
+from rosbook.labs.probes import CheckFailed, TimedOut
 from rosbook.labs.wall_stopper import BUGS
 from tests.labtools import (
     ATTACKS,
@@ -17,14 +19,12 @@ from tests.labtools import (
     extra_cell,
     feedback,
     grade,
+    notebook_path,
     replace_in_answer,
     solution_answers,
     submit,
     with_round_trip,
 )
-
-#: The whole lab graded as a class: minutes (`make test-fast` leaves it out).
-pytestmark = pytest.mark.slow
 
 LAB = "lab08_testing"
 TASK = "wall_stopper_tests"
@@ -126,3 +126,31 @@ def test_feedback_never_shows_hidden_tests(graded: tuple[dict, Path]) -> None:
         _, page = result(graded, student)
         assert "BEGIN HIDDEN TESTS" not in page
         assert "'stops_late', 'wide_cone'" not in page and "['ignores_stop_at']" not in page
+
+
+def test_every_seeded_bug_is_tried_by_a_test_cell_of_the_lab() -> None:
+    """A bug added to ``wall_stopper.BUGS`` is tried on students' tests, visibly or hidden."""
+    source = nbformat.read(notebook_path(LAB, released=False), 4)
+    cells = "".join(c.source for c in source.cells if c.metadata.get("nbgrader", {}).get("grade"))
+    assert [bug for bug in BUGS if repr(bug) not in cells] == []
+
+
+def test_a_test_file_that_exits_before_pytest_reports_earns_no_pass(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Exit code 0 with no test passed (the file ends the process at import) is no pass."""
+    (tmp_path / lab08.TEST_FILE).write_text("import os\n\nos._exit(0)\n")
+    monkeypatch.chdir(tmp_path)
+    with pytest.raises(CheckFailed, match="pytest found no tests in test_wall_stopper.py"):
+        lab08.assert_passes_on_correct()
+
+
+def test_a_test_that_hangs_is_a_timeout_never_wrong(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    hangs = "import threading\n\n\ndef test_waits_forever():\n    threading.Event().wait()\n"
+    (tmp_path / lab08.TEST_FILE).write_text(hangs)
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setattr(lab08, "RUN_GUARD_S", 5.0)
+    with pytest.raises(TimedOut, match="had not finished after 5 s"):
+        lab08.run_tests(bug="never_stops")
