@@ -112,7 +112,16 @@ def assert_passes_on_correct(path: str = TEST_FILE) -> TestRun:
 def assert_catches(path: str, bugs: Sequence[str]) -> None:
     """``path`` passes on the correct wall stopper and fails on each of ``bugs``."""
     assert_passes_on_correct(path)
-    missed = [bug for bug in bugs if run_tests(path, bug).code != FAILED]
+    missed = []
+    for bug in bugs:
+        run = run_tests(path, bug)
+        if run.code not in (PASSED, FAILED):
+            raise CheckFailed(
+                f"pytest did not finish its run of {path} on {wall_stopper.BUGS[bug]}: "
+                f"exit code {run.code}, where a failed test gives 1: {run.tail(1)}"
+            )
+        if run.code == PASSED:
+            missed.append(bug)
     if missed:
         described = "; ".join(wall_stopper.BUGS[bug] for bug in missed)
         raise CheckFailed(
