@@ -139,6 +139,25 @@ def with_round_trip(
     return rows, out
 
 
+def graded_class(
+    factory: object,
+    round_trip: tuple[dict, Path],
+    lab: str,
+    submissions: dict[str, object],
+    **kwargs: object,
+) -> tuple[dict, Path]:
+    """A lab's fixture ``submissions`` (by student) graded as one class (``grade``'s
+    ``kwargs``), with "right" as the round trip graded it (``with_round_trip``).
+    ``factory`` is pytest's ``tmp_path_factory``."""
+    root = factory.mktemp("submissions")  # type: ignore[attr-defined]
+    for student, notebook in submissions.items():
+        if student != "right":  # graded in the round trip
+            submit(root, student, lab, notebook)  # type: ignore[arg-type]
+    out = factory.mktemp("out")  # type: ignore[attr-defined]
+    rows = grade(root, out, assignment_id=lab, **kwargs)
+    return with_round_trip((rows, out), round_trip, lab)
+
+
 def assert_counted_from_zero(log: str) -> None:
     """``log`` (a lab 1 try-it cell's output) holds the counter publisher's lines,
     ``Publishing: 0``, ``1``, ... in order: at least the first. How many a wall-clock spin

@@ -15,12 +15,10 @@ from tests.labtools import (
     answered,
     extra_cell,
     feedback,
-    grade,
     grade_id,
+    graded_class,
     hidden_only_lines,
     replace_in_answer,
-    submit,
-    with_round_trip,
 )
 
 #: The whole lab graded as a class: minutes (`make test-fast` leaves it out).
@@ -58,13 +56,7 @@ def fixtures() -> dict[str, object]:
 def graded(
     tmp_path_factory: pytest.TempPathFactory, round_trip: tuple[dict, Path]
 ) -> tuple[dict, Path]:
-    root = tmp_path_factory.mktemp("submissions")
-    for student, notebook in fixtures().items():
-        if student != "right":  # graded in the round trip (with_round_trip)
-            submit(root, student, LAB, notebook)  # type: ignore[arg-type]
-    out = tmp_path_factory.mktemp("out")
-    rows = grade(root, out, assignment_id=LAB, workers=2, cell_timeout=120)
-    return with_round_trip((rows, out), round_trip, LAB)
+    return graded_class(tmp_path_factory, round_trip, LAB, fixtures(), workers=2, cell_timeout=120)
 
 
 def score(graded: tuple[dict, Path], student: str) -> tuple[str, str]:
@@ -107,10 +99,10 @@ def test_follower_blind_to_the_lidar_hits_the_box_not_on_its_map(graded) -> None
 
 
 def test_slow_follower_fails_the_time_limit_in_simulated_seconds(graded) -> None:
-    assert score(graded, "slow") == ("ok", "7")
+    assert score(graded, "slow") == ("ok", "6")
     text = page(graded, "slow")
     assert re.search(
-        r"reached the goal \(2\.3, 0\.8\) after [\d.]+ s of simulated time; the limit is 25 s", text
+        r"reached the goal \(2\.3, 0\.8\) after [\d.]+ s of simulated time; the limit is 20 s", text
     )
 
 
