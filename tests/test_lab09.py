@@ -108,10 +108,14 @@ def test_slow_follower_fails_the_time_limit_in_simulated_seconds(graded) -> None
 
 def test_a_kernel_that_runs_cells_as_pass_scores_only_what_it_earned(graded) -> None:
     """The A* answer ran before the forgery and earns its points; every later cell ran
-    as ``pass`` in the kernel, so the judge finds no follower: nothing more."""
-    assert score(graded, "forged") == ("ok", "3")
+    as ``pass`` in the kernel, the judge's calls too: the judge reads no answer (never
+    an earlier call's), finds no follower, and the cells that claimed a pass there are
+    named; nothing more is scored."""
+    assert score(graded, "forged") == ("tampered", "3")
     text = page(graded, "forged")
     assert text.count("passed: the grader checked this cell on your code") == 1
+    assert "reported a pass in your notebook, but the grader's own check" in text
+    assert "the judge failed" not in text and "could not check" not in text
 
 
 def test_feedback_never_shows_hidden_tests(graded) -> None:
