@@ -17,6 +17,7 @@ import shutil
 from pathlib import Path
 
 import nbformat
+import pytest
 
 from autograder.config import LABS, SOLUTIONS
 from autograder.course import (  # noqa: F401 (the tests import them from here too)
@@ -120,6 +121,23 @@ def grade_rows(out: Path) -> dict[tuple[str, str], dict[str, str]]:
         return {(r["student_id"], r["assignment_id"]): r for r in csv.DictReader(f)}
 
 
+def grade_lab(
+    tmp_path_factory: pytest.TempPathFactory,
+    round_trip: tuple[dict, Path],
+    lab: str,
+    submissions: dict[str, nbformat.NotebookNode],
+    cell_timeout: int,
+) -> tuple[dict, Path]:
+    """``submissions`` of ``lab`` (notebooks by student) graded as a class, with the run's
+    round trip rows ("right", "untouched") beside them (``with_round_trip``)."""
+    root = tmp_path_factory.mktemp("submissions")
+    for student, notebook in submissions.items():
+        submit(root, student, lab, notebook)
+    out = tmp_path_factory.mktemp("out")
+    rows = grade(root, out, assignment_id=lab, workers=2, cell_timeout=cell_timeout)
+    return with_round_trip((rows, out), round_trip, lab, ("right", "untouched"))
+
+
 def with_round_trip(
     graded: tuple[dict, Path],
     round_trip: tuple[dict, Path],
@@ -137,25 +155,6 @@ def with_round_trip(
         (out / page).parent.mkdir(parents=True, exist_ok=True)
         shutil.copy(shared_out / page, out / page)
     return rows, out
-
-
-def graded_class(
-    factory: object,
-    round_trip: tuple[dict, Path],
-    lab: str,
-    submissions: dict[str, object],
-    **kwargs: object,
-) -> tuple[dict, Path]:
-    """A lab's fixture ``submissions`` (by student) graded as one class (``grade``'s
-    ``kwargs``), with "right" as the round trip graded it (``with_round_trip``).
-    ``factory`` is pytest's ``tmp_path_factory``."""
-    root = factory.mktemp("submissions")  # type: ignore[attr-defined]
-    for student, notebook in submissions.items():
-        if student != "right":  # graded in the round trip
-            submit(root, student, lab, notebook)  # type: ignore[arg-type]
-    out = factory.mktemp("out")  # type: ignore[attr-defined]
-    rows = grade(root, out, assignment_id=lab, **kwargs)
-    return with_round_trip((rows, out), round_trip, lab)
 
 
 def assert_counted_from_zero(log: str) -> None:

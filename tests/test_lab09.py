@@ -16,7 +16,7 @@ from tests.labtools import (
     extra_cell,
     feedback,
     grade_id,
-    graded_class,
+    grade_lab,
     hidden_only_lines,
     replace_in_answer,
 )
@@ -56,7 +56,8 @@ def fixtures() -> dict[str, object]:
 def graded(
     tmp_path_factory: pytest.TempPathFactory, round_trip: tuple[dict, Path]
 ) -> tuple[dict, Path]:
-    return graded_class(tmp_path_factory, round_trip, LAB, fixtures(), workers=2, cell_timeout=120)
+    submissions = {k: v for k, v in fixtures().items() if k != "right"}  # in the round trip
+    return grade_lab(tmp_path_factory, round_trip, LAB, submissions, cell_timeout=120)
 
 
 def score(graded: tuple[dict, Path], student: str) -> tuple[str, str]:
