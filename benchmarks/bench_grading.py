@@ -1,6 +1,7 @@
 """Deadline-day figures: grading each lab, a class of 60, and resuming a stopped class.
 
-- seconds per submission of each lab: the solution, graded alone;
+- seconds per submission of each lab: the solution, graded alone; lab 9's against lab
+  5's (target: at most 2, the navigation runs being lab 5's kind of drive);
 - seconds of a student's ``make check`` of each lab's solution (the edit loop), and lab
   1's against its graded submission in the same run (target: at most 1.4; it was 2.8,
   22.8 s against 8.2 s, when ``make check`` ran the sandbox's preflight every time);
@@ -32,6 +33,9 @@ from benchmarks import Figure, sized
 from tests.labtools import answered, submit
 
 LAB = "lab01_nodes_topics"
+#: Lab 9 drives the simulator as lab 5 does: grading one submission of it should take at
+#: most twice as long as one of lab 5 (the ratio's figure, when both are measured).
+NAVIGATION, DRIVING = "lab09_navigation", "lab05_diff_drive"
 
 
 def graded_ok(rows: list, expected: int) -> None:
@@ -42,6 +46,7 @@ def graded_ok(rows: list, expected: int) -> None:
 
 def per_lab(work: Path) -> list[Figure]:
     figures = []
+    graded: dict[str, float] = {}
     for lab in sized(lab_ids(), [LAB]):
         submissions = work / f"one-{lab}"
         submit(submissions, "student", lab, answered(lab))
@@ -52,6 +57,7 @@ def per_lab(work: Path) -> list[Figure]:
         if row.score != row.max_score:  # the time still counts; say the solution lost points
             print(f"warning: {lab}'s solution scored {row.score:g}/{row.max_score:g}", flush=True)
         figures.append(Figure(f"{lab} seconds per submission", row.seconds, "s"))
+        graded[lab] = row.seconds
         checked = self_check_seconds(work / f"check-{lab}", lab)
         figures.append(Figure(f"{lab} make check seconds", checked, "s"))
         if lab == LAB:
@@ -60,6 +66,14 @@ def per_lab(work: Path) -> list[Figure]:
                     f"{lab} make check vs graded (target <= 1.4)", checked / row.seconds, "ratio"
                 )
             )
+    if NAVIGATION in graded and DRIVING in graded:
+        figures.append(
+            Figure(
+                "lab09 vs lab05 seconds per submission (target <= 2)",
+                graded[NAVIGATION] / graded[DRIVING],
+                "ratio",
+            )
+        )
     return figures
 
 

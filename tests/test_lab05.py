@@ -18,12 +18,11 @@ from rosbook.viz import twin
 from tests.labtools import (
     answered,
     feedback,
-    grade,
     grade_id,
+    grade_lab,
     grade_rows,
     replace_in_answer,
     submit,
-    with_round_trip,
 )
 from tests.slowdown import slow_machine
 
@@ -94,13 +93,8 @@ def fixtures() -> dict[str, object]:
 def graded(
     tmp_path_factory: pytest.TempPathFactory, round_trip: tuple[dict, Path]
 ) -> tuple[dict, Path]:
-    root = tmp_path_factory.mktemp("submissions")
-    for student, notebook in fixtures().items():
-        if student != "right":  # graded in the round trip (with_round_trip)
-            submit(root, student, LAB, notebook)  # type: ignore[arg-type]
-    out = tmp_path_factory.mktemp("out")
-    rows = grade(root, out, assignment_id=LAB, workers=2, cell_timeout=40)
-    return with_round_trip((rows, out), round_trip, LAB)
+    submissions = {k: v for k, v in fixtures().items() if k != "right"}  # in the round trip
+    return grade_lab(tmp_path_factory, round_trip, LAB, submissions, cell_timeout=40)
 
 
 def score(graded: tuple[dict, Path], student: str) -> tuple[str, str]:

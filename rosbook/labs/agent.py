@@ -122,7 +122,7 @@ class JudgeAgent:
         self.node: Any = None
         self.executor: Any = None
         self.ackers: list[Node] = []
-        self.reply = "null"
+        self.reply: str | None = None
         self.made: Any = None
         self.collected: list[Any] = []
         self.background: threading.Thread | None = None
@@ -130,6 +130,13 @@ class JudgeAgent:
 
     def _answer(self, value: Any) -> None:
         self.reply = json.dumps(value)
+
+    def take_reply(self) -> str | None:
+        """The answer of the call that just ran, once (what the judge reads after each
+        call): a call the kernel did not run (a cell run as something else in its place)
+        leaves none, never the answer of an earlier one."""
+        reply, self.reply = self.reply, None
+        return reply
 
     # -- every lab -------------------------------------------------------------------
 

@@ -91,7 +91,7 @@ class Kernel:
             call,
             silent=True,
             store_history=False,
-            user_expressions={"reply": "__rosbook_judge__.reply"},
+            user_expressions={"reply": "__rosbook_judge__.take_reply()"},
         )
 
     def _agent(self) -> None:
@@ -105,7 +105,10 @@ class Kernel:
         if answer.get("status") != "ok":
             raise CheckFailed("the kernel gave no answer to the judge")
         try:
-            return json.loads(ast.literal_eval(answer["data"]["text/plain"]))
+            text = ast.literal_eval(answer["data"]["text/plain"])
+            if text is None:  # the call did not run: the kernel ran something else
+                raise CheckFailed("the kernel gave no answer to the judge")
+            return json.loads(text)
         except (KeyError, ValueError, SyntaxError, TypeError):
             raise CheckFailed("the kernel's answer to the judge was not readable") from None
 
