@@ -190,3 +190,19 @@ def test_follow_moves_a_live_view_in_real_time_and_its_server_stops(bot) -> None
     finally:
         viz.close_live(vis)
     assert proc.poll() is not None, "the MeshCat server process is still running"
+
+
+def test_a_run_replayed_from_its_last_seconds_is_framed_on_them(bot) -> None:
+    """``last``: only the run's last seconds are animated, ending where it ended, and the
+    view frames where the robot drove then, not the whole world (still drawn)."""
+    sim = drive_arc()
+    whole, tail = twin.record(sim, fps=10), twin.record(sim, fps=10, last=1.0)
+    (animation,) = [c for c in decoded(tail) if c["type"] == "set_animation"]
+    base = next(a for a in animation["animations"] if a["path"] == "/meshcat/bot")
+    keys = base["clip"]["tracks"][0]["keys"]
+    assert len(keys) == 11  # 1 s at 10 frames a second, both ends
+    end = twin.axle_pose(twin.final_poses(decoded(tail), bot.name))
+    assert (end.x, end.y) == pytest.approx((sim.pose.x, sim.pose.y), abs=1e-9)
+    walls = [c for c in decoded(tail) if c["type"] == "set_object" and "/world/" in c["path"]]
+    assert len(walls) == 4, "the world is drawn all the same"
+    assert tail.frame["radius"] < whole.frame["radius"]

@@ -329,6 +329,16 @@ class Judgement:
         shown += [f"Parameter({k!r}, value={v!r})" for k, v in (parameters or {}).items()]
         call = f"{factory.name}({', '.join(shown)})"
         self.running.close()  # the kernel is free again for the next node
+        # The endpoints of the cell's last node, which the kernel destroys now: until the
+        # judge's side has seen them go, its endpoints may count them as matched (a
+        # publisher "heard" by the old node's subscription sends the new one nothing).
+        stale: set[str] = set()
+        if self.started is not None:
+            watcher = ros_node("judge_graph_gids")
+            try:
+                stale = endpoint_gids(watcher, self.started.get_name())
+            finally:
+                ros.remove(watcher)
         try:
             info = self.kernel.call(
                 "start", factory.name, kwargs, sim_time, parameters, not sim_time
@@ -344,6 +354,14 @@ class Judgement:
         # source) never has one of the judge's about (held from the judge's start, it
         # left the sandboxed kernel unable to send its replies; the cause is not known).
         ros.hold_participant()
+        if stale:
+            watcher = ros_node("judge_graph_gone")
+            try:  # a guard only: past it, the checks' own waits still hold
+                ros.spin_until(
+                    lambda: not stale & endpoint_gids(watcher), watcher, timeout=EVENT_GUARD_S
+                )
+            finally:
+                ros.remove(watcher)
         self.started = RemoteNode(info, call)
         return self.started
 
@@ -434,6 +452,19 @@ class Judgement:
 
         env = None if domain is None else {**os.environ, "ROS_DOMAIN_ID": str(domain)}
         return run_script(self.folder / name, *ros_args, cwd=self.folder, wrap=self.wrap, env=env)
+
+
+def endpoint_gids(watcher: Node, node_name: str | None = None) -> set[str]:
+    """The GIDs of every topic endpoint on ``watcher``'s graph (of ``node_name``'s only)."""
+    found = set()
+    for topic, _ in watcher.get_topic_names_and_types():
+        for e in [
+            *watcher.get_publishers_info_by_topic(topic),
+            *watcher.get_subscriptions_info_by_topic(topic),
+        ]:
+            if node_name is None or e.node_name == node_name:
+                found.add(bytes(e.endpoint_gid).hex())
+    return found
 
 
 _judging: ContextVar[Judgement | None] = ContextVar("judging", default=None)

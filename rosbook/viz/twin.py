@@ -90,7 +90,8 @@ class Twin:
 
     ``vis`` is a live MeshCat ``Visualizer`` (from ``viz.live_visualizer()``) or, by
     default, one that records (then :meth:`scene` gives the interactive view).
-    ``world`` draws the simulated walls and boxes around the robot.
+    ``world`` draws the simulated walls and boxes around the robot; the view frames them
+    too unless ``frame_world`` is false (then it frames only where the robot drives).
     """
 
     def __init__(
@@ -100,11 +101,14 @@ class Twin:
         world: World | None = None,
         camera: Sequence[float] | None = DEFAULT_CAMERA,
         frames: bool = False,
+        frame_world: bool = True,
     ) -> None:
         self.robot = robot or robots.diff_drive()
         self.view = RobotView(self.robot, vis=vis, frames=frames, camera=camera)
         if world is not None:
-            self.view.include(draw_world(self.view.vis, world))
+            drawn = draw_world(self.view.vis, world)
+            if frame_world:
+                self.view.include(drawn)
 
     @property
     def vis(self) -> meshcat.Visualizer:
@@ -190,19 +194,28 @@ def record(
     height: int = 400,
     camera: Sequence[float] | None = DEFAULT_CAMERA,
     repetitions: int = 1000,
+    last: float | None = None,
 ) -> Scene:
     """A run's recorded twin: its world and the URDF robot replaying the drive.
 
     ``world`` (the walls and boxes drawn) defaults to the run's. The drive plays in a
     loop (``repetitions`` times), so a reader who scrolls to it late still sees it move.
     The last frame is the run's end, so the twin stops where the simulator stopped.
+    ``last``: replay only the run's last seconds, framed on where the robot drives then
+    (a world too big to show the robot large enough, on a phone, whole).
     """
     physics = physics_of(run)
     frames = physics.twin_frames(1.0 / fps)
-    last = current_frame(physics)
-    if not frames or frames[-1].t < last.t - 1e-9:
-        frames.append(last)  # end exactly where the run ended
-    twin = Twin(world=world if world is not None else physics.world, camera=camera)
+    end = current_frame(physics)
+    if not frames or frames[-1].t < end.t - 1e-9:
+        frames.append(end)  # end exactly where the run ended
+    if last is not None:
+        frames = [f for f in frames if f.t >= end.t - last - 1e-9]
+    twin = Twin(
+        world=world if world is not None else physics.world,
+        camera=camera,
+        frame_world=last is None,
+    )
     twin.record(frames, fps=fps, repetitions=repetitions)
     return twin.scene(height=height)
 
