@@ -397,12 +397,16 @@ class Launch:
             os.close(fd)
 
 
+#: The project's packages with upstream's names that students' code imports (launch
+#: files, tf2 nodes): a sandbox sees them read-only, as it sees ``rosbook``.
+FRONT_ENDS = ("launch", "launch_ros", "launch_xml", "launch_yaml", "tf2_ros")
+
+
 def _ro_sources() -> list[str]:
     """Host folders a sandbox sees read-only, at the same path."""
     paths = {"/usr", sys.prefix, sys.base_prefix, str(ROOT / "rosbook")}
-    paths |= {str(ROOT / "launch"), str(ROOT / "launch_ros")}  # lab 6's launch files import them
-    paths.add(str(ROOT / "tf2_ros"))  # lab 7's nodes import it
-    # Of the grader only what starts a sandbox: never the judge's hidden check parameters.
+    paths |= {str(ROOT / name) for name in FRONT_ENDS}
+    # Of the grader only what starts a sandbox.
     starting = ("__init__.py", "sandbox.py", "cgroups.py")
     paths |= {str(ROOT / "autograder" / name) for name in starting}
     real = Path(sys.executable).resolve()

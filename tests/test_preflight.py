@@ -87,7 +87,7 @@ def test_bwraps_own_refusal_of_a_folder_is_explained_with_its_fix(
 def other_checkout(tmp_path: Path) -> Path:
     """A copy of the grader whose venv's editable install points at this checkout."""
     copy = tmp_path / "other-checkout"
-    for name in ("autograder", "rosbook", "launch", "launch_ros", "solutions", "labs"):
+    for name in ("autograder", "rosbook", *sandbox.FRONT_ENDS, "solutions", "labs"):
         ignore = shutil.ignore_patterns("__pycache__")
         shutil.copytree(ROOT / name, copy / name, ignore=ignore, symlinks=True)
     return copy
