@@ -5,6 +5,3 @@
 [ -f /etc/bash.bashrc ] && . /etc/bash.bashrc
 [ -f "$HOME/.bashrc" ] && . "$HOME/.bashrc"
 . "$ROSBOOK_VENV/bin/activate"
-# what `colcon build` needs for a package of interfaces (.msg, .srv, .action) on the wheels;
-# it says here what the machine lacks to build one (a compiler, Python's headers)
-eval "$(python -m rosbook.launch.interfaces_build env)"
