@@ -71,7 +71,11 @@ def test_interface_types_cross_two_processes(built: Workspace) -> None:
         )  # fmt: skip
     finally:
         server.terminate()
-        served, _ = server.communicate(timeout=60)
+        try:
+            served, _ = server.communicate(timeout=60)
+        except subprocess.TimeoutExpired:  # Fast DDS's rare teardown hang (book/computation_
+            server.kill()  # graph.md): how the server ends is not what this test checks
+            served, _ = server.communicate()
     assert asked.returncode == 0, asked.stdout + asked.stderr + served
     lines = asked.stdout.splitlines()
     assert lines[0] == "sum: 6" and lines[2:] == ["result: [3, 2, 1, 0]", "sphere: 7.0 at x=1.0"]
