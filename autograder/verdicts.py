@@ -37,14 +37,12 @@ from nbgrader.preprocessors import ClearHiddenTests, Execute
 from autograder import sandbox
 from autograder.feedback import is_test_cell
 from autograder.judge import (
+    VERDICT_GUARD_S,
     Verdict,
     calls_checks,
     setup_cells,
 )
 from autograder.kernels import CappedExecute, not_run_output
-
-#: Wall-clock guard on one verdict (a hang guard: hitting it is a "timeout").
-VERDICT_GUARD_S = 300.0
 
 #: Run silently in the kernel just before a judged test cell: its checks are deferred.
 DEFER_CELL = "__import__('rosbook.labs.deferral', fromlist=['_']).defer_this_cell()"

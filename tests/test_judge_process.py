@@ -540,23 +540,50 @@ def test_a_value_not_handled_in_the_guard_is_waited_out_not_marked_wrong(
     assert re.search(verdict or "passed", said), said
 
 
-@pytest.mark.slow  # waits out the guard after Ctrl-C
-def test_a_script_still_running_after_ctrl_c_is_a_timeout_not_wrong(
-    session: Session, tmp_path: Path
-) -> None:
-    """The wall-clock guard after Ctrl-C cannot tell a hang from a starved machine."""
+def deaf_talker(folder: Path, on_ctrl_c: str) -> None:
+    """Lab 1's talker.py, right, written to ``folder``, but running ``on_ctrl_c`` (lines of
+    ``main``'s ``except`` block) when Ctrl-C reaches it."""
     answer = next(a for a in solution_answers("lab01_nodes_topics").values() if "talker.py" in a)
     talker = strip_markers(answer).split("\n", 1)[1]  # the program, without %%writefile
     deaf = "        pass\n    finally:"
     assert deaf in talker
-    (tmp_path / "talker.py").write_text(
-        "import threading\n"
-        + talker.replace(deaf, "        threading.Event().wait()  # never ends\n    finally:")
+    (folder / "talker.py").write_text(
+        "import os\nimport threading\n" + talker.replace(deaf, f"{on_ctrl_c}\n    finally:")
     )
+
+
+@pytest.mark.slow  # waits out the guard after Ctrl-C, twice
+def test_a_script_still_running_after_ctrl_c_is_a_timeout_not_wrong(
+    session: Session, tmp_path: Path
+) -> None:
+    """The wall-clock guard after Ctrl-C cannot tell a hang from a starved machine."""
+    deaf_talker(tmp_path, "        threading.Event().wait()  # never ends")
     with judged_kernel("") as kernel:
         verdict = judge_check(kernel, "lab01_nodes_topics", "test_talker_script", tmp_path)
     assert (verdict.passed, verdict.timeout) == (False, True), verdict
     assert verdict.message.startswith("timeout: talker.py was still running 15 s after Ctrl-C")
+
+
+@pytest.mark.slow  # waits out the guard after Ctrl-C once
+def test_a_cell_that_hit_a_guard_once_runs_again_and_is_judged_by_that_run(
+    session: Session, tmp_path: Path, capfd: pytest.CaptureFixture[str]
+) -> None:
+    """A guard cannot tell a hang from a starved machine or from a DDS participant that
+    once in a while takes a minute to end: a cell that hit one runs once more, and a right
+    talker that hung only at its first Ctrl-C passes."""
+    once = (
+        "        if not os.path.exists('interrupted'):\n"
+        "            open('interrupted', 'w').close()\n"
+        "            threading.Event().wait()  # this time only"
+    )
+    deaf_talker(tmp_path, once)
+    with judged_kernel("") as kernel:
+        verdict = judge_check(kernel, "lab01_nodes_topics", "test_talker_script", tmp_path)
+    assert verdict.passed, verdict
+    assert (tmp_path / "interrupted").exists()  # the first run did hang
+    said = capfd.readouterr()
+    assert "test_talker_script: timeout: talker.py was still running" in said.out + said.err
+    assert "the cell once more" in said.out + said.err
 
 
 def lab03_kernel_code(grade_ids: tuple[str, ...], extra: str = "") -> str:

@@ -9,6 +9,7 @@ the honest rows score exactly as graded alone (tests/test_lab01.py).
 from __future__ import annotations
 
 import hashlib
+import json
 import os
 import re
 from pathlib import Path
@@ -146,6 +147,19 @@ def row(graded, student: str) -> dict[str, str]:
     return graded[0][(student, LAB)]
 
 
+def said(graded, student: str) -> str:
+    """What the grader said of ``student``'s row, and the judge's lines of its log: the
+    reason a test's assertion shows when a row is not what it expects."""
+    out = graded[1]
+    for line in (out / "results.jsonl").read_text().splitlines():
+        entry = json.loads(line)
+        if entry["student_id"] == student:
+            message = entry["message"]
+    log = "".join(p.read_text() for p in (out / "logs" / student).glob("*.log"))
+    judged = [line for line in log.splitlines() if line.startswith(("[judge]", "[grader]"))]
+    return "\n".join([message, *judged])
+
+
 def test_every_submission_gets_a_row(graded) -> None:
     names = set(attacks(Path("/"), Path("/")))
     names |= {"victim", "honest_wrong", "duplicated_cell", "huge_notebook"}
@@ -153,19 +167,17 @@ def test_every_submission_gets_a_row(graded) -> None:
     assert {s for s, _ in graded[0]} == names
 
 
+def scored(graded, student: str) -> tuple[str, str]:
+    return row(graded, student)["score"], row(graded, student)["status"]
+
+
 def test_honest_rows_score_as_alone(graded) -> None:
-    assert (row(graded, "victim")["score"], row(graded, "victim")["status"]) == ("10", "ok")
-    assert (row(graded, "honest_wrong")["score"], row(graded, "honest_wrong")["status"]) == (
-        "2",
-        "ok",
-    )
+    assert scored(graded, "victim") == ("10", "ok"), said(graded, "victim")
+    assert scored(graded, "honest_wrong") == ("2", "ok"), said(graded, "honest_wrong")
 
 
 def test_a_duplicated_cell_is_graded_fairly(graded) -> None:
-    assert (row(graded, "duplicated_cell")["score"], row(graded, "duplicated_cell")["status"]) == (
-        "10",
-        "ok",
-    )
+    assert scored(graded, "duplicated_cell") == ("10", "ok"), said(graded, "duplicated_cell")
 
 
 def test_no_attack_earns_a_point(graded) -> None:
