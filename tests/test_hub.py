@@ -180,7 +180,7 @@ def test_release_submit_grade_and_feedback(browser, hub, tmp_path: Path) -> None
     url, state = hub["url"], hub["state"]
     pages = {name: _log_in(browser, url, name, hub["passwords"][name]) for name in STUDENTS}
     for name, page in pages.items():
-        page.wait_for_url(f"**/user/{name}/lab**", timeout=START_S * 1000)
+        page.wait_for_url(f"**/user/{name}/lab**", timeout=START_S * 1000, wait_until="commit")
         page.wait_for_function("() => window.jupyterapp !== undefined", timeout=START_S * 1000)
     assert _hub_command(hub, "coursehub.hub", "release", LAB).split()[2:] == list(STUDENTS)
     tabs = {name: _assignments_tab(page) for name, page in pages.items()}
@@ -232,7 +232,9 @@ def test_release_submit_grade_and_feedback(browser, hub, tmp_path: Path) -> None
         assert listed.status == 200 and LAB in listed.text(), (name, listed.text())
         assert page.request.get(f"{url}/user/{name}/lsp/status").status == 404, name
     instructor = _log_in(browser, url, INSTRUCTOR, hub["passwords"][INSTRUCTOR])
-    instructor.wait_for_url(f"**/user/{INSTRUCTOR}/lab**", timeout=START_S * 1000)
+    instructor.wait_for_url(
+        f"**/user/{INSTRUCTOR}/lab**", timeout=START_S * 1000, wait_until="commit"
+    )
     assert instructor.request.get(f"{url}/user/{INSTRUCTOR}/formgrader").status == 200
     assert instructor.request.get(f"{url}/user/{INSTRUCTOR}/lsp/status").status == 200
     instructor.context.close()
@@ -251,11 +253,15 @@ def test_students_are_isolated_and_nothing_survives_the_hub(browser, hub) -> Non
     for name, page in pages.items():
         # the login goes to the notebook, or to the hub's page saying that the server is
         # not running (as at the first login of this hub), whose button starts it
-        page.wait_for_url(re.compile(f"/user/{name}/{notebook}$"), timeout=START_S * 1000)
+        page.wait_for_url(
+            re.compile(f"/user/{name}/{notebook}$"), timeout=START_S * 1000, wait_until="commit"
+        )
         if urlparse(page.url).path.startswith("/hub/"):
-            page.click("#start")
+            page.click("#start", timeout=START_S * 1000)
     for name, page in pages.items():
-        page.wait_for_url(f"{url}/user/{name}/{notebook}", timeout=START_S * 1000)
+        page.wait_for_url(
+            f"{url}/user/{name}/{notebook}", timeout=START_S * 1000, wait_until="commit"
+        )
         _wait_for_notebook(page)
     for name, page in pages.items():
         _run_cell(page, _index(page, "from rosbook.labs import lab01 as checks"))
