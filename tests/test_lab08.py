@@ -1,16 +1,21 @@
 """Lab 8 graded end to end: a student's tests are run against the correct wall stopper
-and seeded bugs, and the feedback names each bug they missed by what it does."""
+and seeded bugs, and the feedback names each bug they missed by what it does. A test
+file that finds out which node it runs on, instead of testing what it does, earns no
+more than one that tests nothing."""
 
 from __future__ import annotations
 
 import html
+import math
+import subprocess
+import sys
 from pathlib import Path
 
 import nbformat
 import pytest
 
 from autograder.course import strip_markers
-from rosbook.labs import lab08
+from rosbook.labs import lab08, wall_stopper
 from rosbook.labs.probes import CheckFailed, TimedOut
 from rosbook.labs.wall_stopper import BUGS
 from tests.labtools import (
@@ -39,6 +44,66 @@ def with_tests(*changes: tuple[str, str]) -> nbformat.NotebookNode:
     return answered(LAB, **{TASK: source})
 
 
+#: A test file that tests nothing: it passes on every node (what it earns is the floor).
+EMPTY = """\
+from wall_stopper import WallStopper, forward_speed
+
+
+def test_the_node_imports():
+    assert callable(forward_speed) and WallStopper.__name__ == 'WallStopper'
+"""
+
+#: A test file that fails when anything in its process names a bug (the module's state,
+#: its arguments, environment or input): it "catches" bugs it never tests.
+READS_STATE = """\
+import os
+import sys
+
+import wall_stopper
+from rosbook.labs.wall_stopper import BUGS
+from wall_stopper import WallStopper, forward_speed
+
+
+def test_no_bug_is_seeded():
+    try:
+        given = sys.__stdin__.read()
+    except (OSError, ValueError):
+        given = ''
+    seen = repr(vars(wall_stopper)) + repr(sys.argv) + repr(dict(os.environ)) + given
+    assert getattr(wall_stopper, '_bug', None) is None
+    assert [bug for bug in BUGS if bug in seen] == []
+"""
+
+#: A test file that fails unless the node's bytecode is the correct one's, which it
+#: makes from what the release holds.
+FINGERPRINTS = """\
+import types
+
+import wall_stopper
+from rosbook.labs.wall_stopper import variant
+from wall_stopper import WallStopper, forward_speed
+
+
+def code_of(namespace):
+    found = []
+    for value in (namespace['forward_speed'], *vars(namespace['WallStopper']).values()):
+        if isinstance(value, types.FunctionType):
+            found.append((value.__qualname__, value.__code__.co_code, value.__code__.co_consts))
+    return found
+
+
+def test_the_node_is_the_correct_one():
+    correct = {}
+    exec(variant(), correct)
+    assert code_of(vars(wall_stopper)) == code_of(correct)
+"""
+
+
+def test_file(source: str) -> nbformat.NotebookNode:
+    """The release with ``source`` as its test file."""
+    return answered(LAB, **{TASK: f"%%writefile {lab08.TEST_FILE}\n{source}"})
+
+
 def unit_tests_only() -> nbformat.NotebookNode:
     """The solution's test file without its node test: only ``forward_speed`` is tested."""
     source = replace_in_answer(LAB, TASK, "", "")[TASK]
@@ -63,6 +128,9 @@ def graded(
     submit(root, "wrong_expectation", LAB, strict)
     submit(root, "unit_tests_only", LAB, unit_tests_only())
     submit(root, "hostile", LAB, extra_cell(answered(LAB), ATTACKS["input_transformer"]))
+    submit(root, "empty_tests", LAB, test_file(EMPTY))
+    submit(root, "reads_state", LAB, test_file(READS_STATE))
+    submit(root, "fingerprints", LAB, test_file(FINGERPRINTS))
     out = tmp_path_factory.mktemp("out")
     # no submission here hangs: a generous cell guard, so a loaded machine never times out
     rows = grade(root, out, assignment_id=LAB, workers=2, cell_timeout=600)
@@ -121,11 +189,41 @@ def test_cells_turned_into_pass_in_the_kernel_score_nothing(graded: tuple[dict, 
     assert "test_wall_stopper.py does not exist" in page
 
 
+def test_a_test_file_that_tests_nothing_earns_only_the_pass_on_correct(
+    graded: tuple[dict, Path],
+) -> None:
+    row, page = result(graded, "empty_tests")
+    assert (row["status"], row["score"]) == ("ok", "2")
+    assert f"your tests passed on {BUGS['never_stops']}" in page
+
+
+@pytest.mark.parametrize("student", ["reads_state", "fingerprints"])
+def test_a_test_file_that_finds_out_which_node_it_runs_on_earns_no_more_than_an_empty_one(
+    graded: tuple[dict, Path], student: str
+) -> None:
+    """Nothing in the test process names the bug, and the hidden tests also run a
+    correct node written differently, which a file that recognises the code fails on."""
+    row, _ = result(graded, student)
+    empty, _ = result(graded, "empty_tests")
+    assert row["status"] == "ok" and int(row["score"]) <= int(empty["score"])
+
+
+def test_a_fingerprinting_test_file_is_told_it_fails_on_a_correct_node(
+    graded: tuple[dict, Path],
+) -> None:
+    _, page = result(graded, "fingerprints")
+    assert (
+        "your tests must all pass on a correct wall stopper written differently, and these "
+        "failed: test_the_node_is_the_correct_one"
+    ) in page
+
+
 def test_feedback_never_shows_hidden_tests(graded: tuple[dict, Path]) -> None:
     for student in ("right", "weak_tests", "unit_tests_only"):
         _, page = result(graded, student)
         assert "BEGIN HIDDEN TESTS" not in page
         assert "'stops_late', 'wide_cone'" not in page and "['ignores_stop_at']" not in page
+        assert "rewrite=" not in page
 
 
 def test_every_seeded_bug_is_tried_by_a_test_cell_of_the_lab() -> None:
@@ -154,3 +252,46 @@ def test_a_test_that_hangs_is_a_timeout_never_wrong(
     monkeypatch.setattr(lab08, "RUN_GUARD_S", 5.0)
     with pytest.raises(TimedOut, match="had not finished after 5 s"):
         lab08.run_tests(bug="never_stops")
+
+
+@pytest.mark.parametrize("bug", [None, *BUGS])
+def test_no_variant_of_the_node_names_its_bug(bug: str | None) -> None:
+    """The module under test holds the variant's code only: no bug's name, no decision."""
+    for rewrite in (None, 1):
+        source = wall_stopper.variant(bug, rewrite)
+        assert "_bug" not in source and [b for b in BUGS if b in source] == []
+        module = lab08.module_under_test(source)
+        assert not hasattr(module, "BUGS") and not hasattr(module, "variant")
+
+
+def test_a_rewritten_correct_node_is_other_code_with_the_same_answers() -> None:
+    correct = lab08.module_under_test(wall_stopper.variant())
+    assert wall_stopper.variant(rewrite=58231) != wall_stopper.variant()
+    for seed in range(20):
+        other = lab08.module_under_test(wall_stopper.variant(rewrite=seed))
+        assert other.forward_speed.__code__.co_code != correct.forward_speed.__code__.co_code
+        for ranges in ([], [0.5] * 21, [3.0] * 10 + [0.49] + [3.0] * 10, [0.2] + [3.0] * 20):
+            for step in (math.radians(1), math.radians(5)):
+                for stop_at in (0.49, 0.5, 1.0):
+                    args = (ranges, -10 * step, step, 0.3, stop_at)
+                    assert other.forward_speed(*args) == correct.forward_speed(*args), args
+
+
+def test_the_process_under_test_says_what_it_got_and_its_tests_read_nothing_more(
+    tmp_path: Path,
+) -> None:
+    """Its first line is the digest of the module it got on stdin; by then stdin is read
+    to its end and closed, so a test reading it finds nothing."""
+    test = "import sys\n\n\ndef test_stdin_is_empty():\n    assert sys.__stdin__.read() == ''\n"
+    (tmp_path / lab08.TEST_FILE).write_text(test)
+    source = wall_stopper.variant("never_stops")
+    run = subprocess.run(
+        [sys.executable, "-I", "-m", "rosbook.labs.lab08", lab08.TEST_FILE],
+        input=source,
+        capture_output=True,
+        text=True,
+        cwd=tmp_path,
+        timeout=lab08.RUN_GUARD_S,
+    )
+    assert run.stdout.splitlines()[0] == lab08.received(source)
+    assert run.returncode == lab08.PASSED, run.stdout

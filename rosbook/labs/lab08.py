@@ -3,19 +3,25 @@ and fail on each seeded bug.
 
 The student's tests import the node under test as ``from wall_stopper import
 WallStopper, forward_speed``. Each check runs the test file with pytest in a process of
-its own, ``python -I -m rosbook.labs.lab08 TEST_FILE``, which puts
-``rosbook.labs.wall_stopper`` on that name, seeded with the bug it reads on its stdin
-(none: the correct node). When graded, the judge starts that process as the student,
-in the student's sandbox and folder (``Judgement.wrap``), and reads its exit code
-itself: pytest's own verdict on the student's tests. A bug the tests miss is named by
-its description (``wall_stopper.BUGS``), never by a test's source.
+its own, ``python -I -m rosbook.labs.lab08 TEST_FILE``, which reads the source of the
+module under test on its stdin (``wall_stopper.variant``: one variant's code, nothing
+that names it), makes it that module, closes its stdin, and says the digest of what it
+got before pytest starts; a run whose digest is not the sent one is no verdict. When
+graded, the judge starts that process as the student, in the student's sandbox and
+folder (``Judgement.wrap``), and reads its exit code itself: pytest's own verdict on the
+student's tests. A bug is named by what it does (``wall_stopper.BUGS``), never by
+anything the tests can read, and the hidden tests also try them on a correct node
+written differently (``rewrite``), which a test that recognises the code fails on.
 """
 
 from __future__ import annotations
 
+import hashlib
+import os
 import re
 import subprocess
 import sys
+import types
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -30,6 +36,9 @@ TEST_FILE = "test_wall_stopper.py"
 MODULE = "wall_stopper"
 #: Wall-clock seconds one pytest run may take: a hang guard, never a verdict.
 RUN_GUARD_S = 300.0
+
+#: The first line the process prints: the digest of the module it got (``received``).
+RECEIVED = f"{MODULE} under test: sha256 "
 
 #: pytest's exit codes (``pytest.ExitCode``) that the checks tell apart.
 PASSED, FAILED, NO_TESTS = 0, 1, 5
@@ -62,11 +71,19 @@ class TestRun:
         return "\n".join(self.output.strip().splitlines()[-lines:])
 
 
-def run_tests(path: str = TEST_FILE, bug: str | None = None) -> TestRun:
+def received(source: str) -> str:
+    """The line that says the process got ``source`` as the module under test."""
+    return RECEIVED + hashlib.sha256(source.encode()).hexdigest()
+
+
+def run_tests(
+    path: str = TEST_FILE, bug: str | None = None, rewrite: int | None = None
+) -> TestRun:
     """Run pytest on ``path`` against the wall stopper seeded with ``bug`` (None: the
-    correct one); when graded, as the student in their sandbox. A hang is ``TimedOut``."""
-    if bug is not None and bug not in wall_stopper.BUGS:
-        raise ValueError(f"no seeded bug {bug!r}; the bugs: {', '.join(wall_stopper.BUGS)}")
+    correct one; ``rewrite``: written differently, ``wall_stopper.variant``); when graded,
+    as the student in their sandbox. A hang is ``TimedOut``; a process that did not get
+    the module under test is a ``RuntimeError`` (the grader's, never a verdict)."""
+    source = wall_stopper.variant(bug, rewrite)
     j = judging()
     folder = Path.cwd() if j is None else j.folder
     if not (folder / path).is_file():
@@ -76,27 +93,35 @@ def run_tests(path: str = TEST_FILE, bug: str | None = None) -> TestRun:
     wrap = list if j is None else j.wrap
     with run_program(argv, cwd=folder, wrap=wrap, stdin=True) as run:
         try:
-            output, _ = run.proc.communicate(f"{bug or ''}\n", timeout=guard)
+            output, _ = run.proc.communicate(source, timeout=guard)
         except subprocess.TimeoutExpired:
             against = "a correct node" if bug is None else wall_stopper.BUGS[bug]
             raise TimedOut(
                 f"timeout: pytest on {path} against {against} had not finished after "
                 f"{guard:.0f} s. Does a test wait for something without a guard?"
             ) from None
-    return TestRun(bug, run.proc.returncode, output)
+    first, _, rest = output.partition("\n")
+    if first != received(source):
+        raise RuntimeError(
+            f"the run of {path} did not get its module under test (exit code "
+            f"{run.proc.returncode}): {output.strip()[-300:]!r}"
+        )
+    return TestRun(bug, run.proc.returncode, rest)
 
 
-def assert_passes_on_correct(path: str = TEST_FILE) -> TestRun:
-    """Every test of ``path`` passes on the correct wall stopper (and there is one)."""
-    run = run_tests(path)
+def assert_passes_on_correct(path: str = TEST_FILE, rewrite: int | None = None) -> TestRun:
+    """Every test of ``path`` passes on the correct wall stopper (and there is one);
+    ``rewrite``: on the correct one written differently by that seed."""
+    run = run_tests(path, rewrite=rewrite)
     if run.code == NO_TESTS or (run.code == PASSED and not run.passed):
         raise CheckFailed(
             f"pytest found no tests in {path}: name each test function test_..., at the "
             "top level of the file"
         )
     if run.code == FAILED:
+        correct = "a correct wall stopper" + (" written differently" if rewrite else "")
         raise CheckFailed(
-            f"your tests must all pass on a correct wall stopper, and these failed: "
+            f"your tests must all pass on {correct}, and these failed: "
             f"{', '.join(run.failed) or 'see below'}. A test that fails on right code "
             f"expects something the contract does not say.\n{run.tail()}"
         )
@@ -109,12 +134,13 @@ def assert_passes_on_correct(path: str = TEST_FILE) -> TestRun:
     return run
 
 
-def assert_catches(path: str, bugs: Sequence[str]) -> None:
-    """``path`` passes on the correct wall stopper and fails on each of ``bugs``."""
-    assert_passes_on_correct(path)
+def assert_catches(path: str, bugs: Sequence[str], rewrite: int | None = None) -> None:
+    """``path`` passes on the correct wall stopper and fails on each of ``bugs``; with
+    ``rewrite``, each of them written differently by that seed."""
+    assert_passes_on_correct(path, rewrite)
     missed = []
     for bug in bugs:
-        run = run_tests(path, bug)
+        run = run_tests(path, bug, rewrite)
         if run.code not in (PASSED, FAILED):
             raise CheckFailed(
                 f"pytest did not finish its run of {path} on {wall_stopper.BUGS[bug]}: "
@@ -130,15 +156,27 @@ def assert_catches(path: str, bugs: Sequence[str]) -> None:
         )
 
 
+def module_under_test(source: str) -> types.ModuleType:
+    """``source`` made the module ``MODULE``, as an import would (with no file)."""
+    module = types.ModuleType(MODULE)
+    exec(compile(source, f"<{MODULE}>", "exec"), module.__dict__)  # noqa: S102 (variant())
+    return module
+
+
 def main(argv: list[str] | None = None) -> int:
-    """``python -I -m rosbook.labs.lab08 TEST_FILE``, given the bug's name (or an empty
-    line) on stdin: pytest on ``TEST_FILE`` with the seeded wall stopper as ``MODULE``;
-    exits with pytest's exit code."""
+    """``python -I -m rosbook.labs.lab08 TEST_FILE``, given the module under test's
+    source on stdin: pytest on ``TEST_FILE`` with that module as ``MODULE``; exits with
+    pytest's exit code. Nothing the tests can read names the variant: stdin is read to
+    its end and closed, and the source is not kept."""
     import pytest
 
     (path,) = sys.argv[1:] if argv is None else argv
-    wall_stopper.seed(sys.stdin.readline().strip() or None)
-    sys.modules[MODULE] = wall_stopper
+    source = sys.stdin.read()
+    sys.modules[MODULE] = module_under_test(source)
+    os.dup2(os.open(os.devnull, os.O_RDONLY), 0)
+    sys.stdin = open(os.devnull)  # noqa: SIM115 - the process's stdin, to its end
+    print(received(source), flush=True)
+    del source
     options = ["-p", "no:cacheprovider", "-c", "/dev/null", "--rootdir", "."]
     return int(pytest.main([*options, "-q", "-rfE", "--color=no", "--no-header", path]))
 

@@ -1,15 +1,22 @@
 """The wall stopper that lab 8's students test: correct, or with one seeded bug.
 
-A student's test file imports ``from wall_stopper import WallStopper, forward_speed``;
-``rosbook.labs.lab08`` runs it with this module under that name, seeded with no bug
-(the tests must all pass) or with one of ``BUGS`` (one of the tests must fail). One
-implementation holds every variant, so a bug is one decision changed, as in real code.
+A student's test file imports ``from wall_stopper import WallStopper, forward_speed``.
+``rosbook.labs.lab08`` runs it with a module of that name made for the run from
+``variant(bug)``: this file's implementation with each decision on ``_bug`` taken for
+that bug (or none), so the module under test holds that variant's code and nothing that
+names it. One implementation holds every variant, so a bug is one decision changed, as
+in real code. ``variant(bug, rewrite=seed)`` writes it differently, with the same
+behaviour (locals renamed, comparisons turned round): a test that recognises the code
+instead of testing what it does fails on such a correct node.
 """
 
 from __future__ import annotations
 
+import ast
 import math
+import random
 from collections.abc import Sequence
+from pathlib import Path
 from typing import Any
 
 from geometry_msgs.msg import Twist
@@ -44,15 +51,8 @@ BUGS = {
     ),
 }
 
+#: The decision each variant takes away (``variant``): None in this module, correct.
 _bug: str | None = None
-
-
-def seed(bug: str | None) -> None:
-    """Make this module behave with ``bug`` (a key of ``BUGS``), or correctly (None)."""
-    global _bug
-    if bug is not None and bug not in BUGS:
-        raise ValueError(f"no seeded bug {bug!r}; the bugs: {', '.join(BUGS)}")
-    _bug = bug
 
 
 def forward_speed(
@@ -96,3 +96,117 @@ class WallStopper(Node):
             msg.ranges, msg.angle_min, msg.angle_increment, self.speed, self.stop_at
         )
         self.publisher_.publish(cmd)
+
+
+# -- the module under test, made for each run ------------------------------------------
+
+#: This module's top-level names that a variant holds, with the imports they use.
+IMPLEMENTATION = ("CONE", "SPEED", "STOP_AT", "forward_speed", "WallStopper")
+
+
+def variant(bug: str | None = None, rewrite: int | None = None) -> str:
+    """The source of the module under test: ``IMPLEMENTATION`` with every decision on
+    ``_bug`` taken for ``bug`` (a key of ``BUGS``; None: correct), so that nothing in it
+    names the bug; with ``rewrite``, written differently by that seed (same behaviour)."""
+    if bug is not None and bug not in BUGS:
+        raise ValueError(f"no seeded bug {bug!r}; the bugs: {', '.join(BUGS)}")
+    tree = ast.parse(Path(__file__).read_text())
+    kept = [node for node in tree.body if _bound(node) & set(IMPLEMENTATION)]
+    used = {node.id for part in kept for node in ast.walk(part) if isinstance(node, ast.Name)}
+    imports = [
+        node
+        for node in tree.body
+        if isinstance(node, (ast.Import, ast.ImportFrom))
+        and (_bound(node) & used or getattr(node, "module", None) == "__future__")
+    ]
+    module = _Seeded(bug).visit(ast.Module(body=[*imports, *kept], type_ignores=[]))
+    if rewrite is not None:
+        module = _rewritten(module, random.Random(rewrite))
+    source = ast.unparse(ast.fix_missing_locations(module)) + "\n"
+    assert "_bug" not in source, "a decision on _bug that variant() cannot take"
+    return source
+
+
+def _bound(node: ast.stmt) -> set[str]:
+    """The names a top-level statement binds."""
+    if isinstance(node, (ast.Import, ast.ImportFrom)):
+        return {(a.asname or a.name).split(".")[0] for a in node.names}
+    if isinstance(node, (ast.FunctionDef, ast.ClassDef)):
+        return {node.name}
+    targets = node.targets if isinstance(node, ast.Assign) else [getattr(node, "target", None)]
+    return {t.id for t in targets if isinstance(t, ast.Name)}
+
+
+class _Seeded(ast.NodeTransformer):
+    """``_bug`` replaced by the bug, and each test on it (``_bug == name``) decided."""
+
+    def __init__(self, bug: str | None) -> None:
+        self.bug = bug
+
+    def visit_Name(self, node: ast.Name) -> ast.AST:
+        return ast.Constant(self.bug) if node.id == "_bug" else node
+
+    def visit_Compare(self, node: ast.Compare) -> ast.AST:
+        self.generic_visit(node)
+        sides = [node.left, *node.comparators]
+        if len(node.ops) == 1 and all(isinstance(side, ast.Constant) for side in sides):
+            left, right = (side.value for side in sides)  # type: ignore[attr-defined]
+            if isinstance(node.ops[0], (ast.Eq, ast.NotEq)):
+                return ast.Constant((left == right) == isinstance(node.ops[0], ast.Eq))
+        return node
+
+    def visit_IfExp(self, node: ast.IfExp) -> ast.AST:
+        self.generic_visit(node)
+        if isinstance(node.test, ast.Constant):
+            return node.body if node.test.value else node.orelse
+        return node
+
+    def visit_If(self, node: ast.If) -> ast.AST | list[ast.stmt]:
+        self.generic_visit(node)
+        if isinstance(node.test, ast.Constant):
+            return node.body if node.test.value else node.orelse
+        return node
+
+
+#: Each comparison the same turned round (``a < b`` is ``b > a``).
+_MIRRORED: dict[type[ast.cmpop], type[ast.cmpop]] = {
+    ast.Lt: ast.Gt, ast.Gt: ast.Lt, ast.LtE: ast.GtE, ast.GtE: ast.LtE,
+    ast.Eq: ast.Eq, ast.NotEq: ast.NotEq,
+}  # fmt: skip
+
+
+def _rewritten(module: ast.Module, rng: random.Random) -> ast.Module:
+    """``module`` written differently, behaving the same: each function's locals renamed
+    and a local of no use added (so each function's bytecode differs too), some
+    comparisons and conditional expressions turned round (at least one)."""
+    for function in [n for n in ast.walk(module) if isinstance(n, ast.FunctionDef)]:
+        arguments = {a.arg for a in ast.walk(function.args) if isinstance(a, ast.arg)}
+        stored = {
+            n.id
+            for n in ast.walk(function)
+            if isinstance(n, ast.Name) and isinstance(n.ctx, ast.Store) and n.id not in arguments
+        }
+        names = {name: f"{name}_{rng.randrange(16**4):04x}" for name in sorted(stored)}
+        for node in ast.walk(function):
+            if isinstance(node, ast.Name) and node.id in names:
+                node.id = names[node.id]
+        unused = ast.Name(f"unused_{rng.randrange(16**4):04x}", ast.Store())
+        docstring = int(ast.get_docstring(function) is not None)
+        function.body.insert(
+            docstring, ast.Assign([unused], ast.Constant(rng.randrange(10**6)), lineno=0)
+        )
+    turnable = [
+        n
+        for n in ast.walk(module)
+        if isinstance(n, ast.IfExp)
+        or (isinstance(n, ast.Compare) and len(n.ops) == 1 and type(n.ops[0]) in _MIRRORED)
+    ]
+    chosen = [n for n in turnable if rng.random() < 0.5] or turnable[:1]
+    for node in chosen:
+        if isinstance(node, ast.Compare):
+            node.left, node.comparators = node.comparators[0], [node.left]
+            node.ops = [_MIRRORED[type(node.ops[0])]()]
+        else:
+            node.body, node.orelse = node.orelse, node.body
+            node.test = ast.UnaryOp(ast.Not(), node.test)
+    return module
