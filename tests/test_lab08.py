@@ -69,7 +69,7 @@ def test_no_bug_is_seeded():
         given = sys.__stdin__.read()
     except (OSError, ValueError):
         given = ''
-    seen = repr(vars(wall_stopper)) + repr(sys.argv) + repr(dict(os.environ)) + given
+    seen = repr(sys.argv) + repr(dict(os.environ)) + given
     assert getattr(wall_stopper, '_bug', None) is None
     assert [bug for bug in BUGS if bug in seen] == []
 """
@@ -99,7 +99,7 @@ def test_the_node_is_the_correct_one():
 """
 
 
-def test_file(source: str) -> nbformat.NotebookNode:
+def with_test_file(source: str) -> nbformat.NotebookNode:
     """The release with ``source`` as its test file."""
     return answered(LAB, **{TASK: f"%%writefile {lab08.TEST_FILE}\n{source}"})
 
@@ -128,9 +128,9 @@ def graded(
     submit(root, "wrong_expectation", LAB, strict)
     submit(root, "unit_tests_only", LAB, unit_tests_only())
     submit(root, "hostile", LAB, extra_cell(answered(LAB), ATTACKS["input_transformer"]))
-    submit(root, "empty_tests", LAB, test_file(EMPTY))
-    submit(root, "reads_state", LAB, test_file(READS_STATE))
-    submit(root, "fingerprints", LAB, test_file(FINGERPRINTS))
+    submit(root, "empty_tests", LAB, with_test_file(EMPTY))
+    submit(root, "reads_state", LAB, with_test_file(READS_STATE))
+    submit(root, "fingerprints", LAB, with_test_file(FINGERPRINTS))
     out = tmp_path_factory.mktemp("out")
     # no submission here hangs: a generous cell guard, so a loaded machine never times out
     rows = grade(root, out, assignment_id=LAB, workers=2, cell_timeout=600)
@@ -202,10 +202,11 @@ def test_a_test_file_that_finds_out_which_node_it_runs_on_earns_no_more_than_an_
     graded: tuple[dict, Path], student: str
 ) -> None:
     """Nothing in the test process names the bug, and the hidden tests also run a
-    correct node written differently, which a file that recognises the code fails on."""
+    correct node written differently, which a file that recognises the code fails on.
+    (The fingerprinting file's ``exec`` also has it marked tampered, for a person.)"""
     row, _ = result(graded, student)
     empty, _ = result(graded, "empty_tests")
-    assert row["status"] == "ok" and int(row["score"]) <= int(empty["score"])
+    assert row["status"] in ("ok", "tampered") and int(row["score"]) <= int(empty["score"])
 
 
 def test_a_fingerprinting_test_file_is_told_it_fails_on_a_correct_node(
