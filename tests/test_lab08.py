@@ -237,11 +237,23 @@ def test_every_seeded_bug_is_tried_by_a_test_cell_of_the_lab() -> None:
 def test_a_test_file_that_exits_before_pytest_reports_earns_no_pass(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    """Exit code 0 with no test passed (the file ends the process at import) is no pass."""
+    """Exit code 0 before pytest returned (the file ends the process at import) is no pass."""
     (tmp_path / lab08.TEST_FILE).write_text("import os\n\nos._exit(0)\n")
     monkeypatch.chdir(tmp_path)
-    with pytest.raises(CheckFailed, match="pytest found no tests in test_wall_stopper.py"):
+    said = "pytest did not finish its run of test_wall_stopper.py on a correct wall stopper: "
+    with pytest.raises(CheckFailed, match=f"{said}the process ended \\(exit code 0\\)"):
         lab08.assert_passes_on_correct()
+
+
+def test_a_runs_verdict_is_what_pytest_returned_not_the_exit_code_the_judge_was_told() -> None:
+    """On a loaded machine the judge was told exit code 0 for a sandboxed run whose
+    pytest had returned 1 ("1 failed, 5 passed"): the unit-tests-only class scored 2 for 6.
+    The verdict is the process's last line, what ``pytest.main`` returned."""
+    assert lab08.finished(f"1 failed, 5 passed\n\n{lab08.FINISHED}1\n") == (
+        lab08.FAILED,
+        "1 failed, 5 passed\n",
+    )
+    assert lab08.finished("1 failed, 5 passed\n")[0] is None
 
 
 def test_a_test_that_hangs_is_a_timeout_never_wrong(
@@ -295,4 +307,4 @@ def test_the_process_under_test_says_what_it_got_and_its_tests_read_nothing_more
         timeout=lab08.RUN_GUARD_S,
     )
     assert run.stdout.splitlines()[0] == lab08.received(source)
-    assert run.returncode == lab08.PASSED, run.stdout
+    assert run.stdout.splitlines()[-1] == f"{lab08.FINISHED}{lab08.PASSED}", run.stdout

@@ -40,6 +40,11 @@ RUN_GUARD_S = 300.0
 #: The first line the process prints: the digest of the module it got (``received``).
 RECEIVED = f"{MODULE} under test: sha256 "
 
+#: The last line the process prints: what ``pytest.main`` returned (``finished``). The
+#: verdict is read from it, not from the exit code: on a loaded machine the judge was
+#: told 0 for a run whose pytest had returned 1 (the exit status lost on its way).
+FINISHED = "pytest returned "
+
 #: pytest's exit codes (``pytest.ExitCode``) that the checks tell apart.
 PASSED, FAILED, NO_TESTS = 0, 1, 5
 
@@ -51,8 +56,11 @@ class TestRun:
     __test__ = False  # not a test class, for pytest
 
     bug: str | None
-    code: int
+    #: What pytest returned, or None when the process ended before it returned.
+    code: int | None
     output: str
+    #: The process's exit code, as the judge was told it.
+    exit: int | None = None
 
     @property
     def failed(self) -> list[str]:
@@ -74,6 +82,16 @@ class TestRun:
 def received(source: str) -> str:
     """The line that says the process got ``source`` as the module under test."""
     return RECEIVED + hashlib.sha256(source.encode()).hexdigest()
+
+
+def finished(output: str) -> tuple[int | None, str]:
+    """What pytest returned, as the last line of ``output`` says (None: no such line,
+    the process ended before), and the output without that line."""
+    head, _, last = output.rstrip("\n").rpartition("\n")
+    said = last.removeprefix(FINISHED)
+    if last.startswith(FINISHED) and said.isdigit():
+        return int(said), head
+    return None, output
 
 
 def run_tests(
@@ -106,13 +124,23 @@ def run_tests(
             f"the run of {path} did not get its module under test (exit code "
             f"{run.proc.returncode}): {output.strip()[-300:]!r}"
         )
-    return TestRun(bug, run.proc.returncode, rest)
+    code, rest = finished(rest)
+    if code is not None and code != run.proc.returncode:  # for the grading log
+        print(
+            f"[lab08] pytest on {path} returned {code}; its process's exit code read "
+            f"{run.proc.returncode}",
+            file=sys.stderr,
+            flush=True,
+        )
+    return TestRun(bug, code, rest, run.proc.returncode)
 
 
 def assert_passes_on_correct(path: str = TEST_FILE, rewrite: int | None = None) -> TestRun:
     """Every test of ``path`` passes on the correct wall stopper (and there is one);
     ``rewrite``: on the correct one written differently by that seed."""
     run = run_tests(path, rewrite=rewrite)
+    if run.code is None:
+        raise unfinished(path, run, "a correct wall stopper")
     if run.code == NO_TESTS or (run.code == PASSED and not run.passed):
         raise CheckFailed(
             f"pytest found no tests in {path}: name each test function test_..., at the "
@@ -141,6 +169,8 @@ def assert_catches(path: str, bugs: Sequence[str], rewrite: int | None = None) -
     missed = []
     for bug in bugs:
         run = run_tests(path, bug, rewrite)
+        if run.code is None:
+            raise unfinished(path, run, wall_stopper.BUGS[bug])
         if run.code not in (PASSED, FAILED):
             raise CheckFailed(
                 f"pytest did not finish its run of {path} on {wall_stopper.BUGS[bug]}: "
@@ -154,6 +184,14 @@ def assert_catches(path: str, bugs: Sequence[str], rewrite: int | None = None) -
             f"your tests passed on {described}. Add a test that fails on "
             f"{'it' if len(missed) == 1 else 'each'}."
         )
+
+
+def unfinished(path: str, run: TestRun, against: str) -> CheckFailed:
+    """What a run whose process ended before pytest returned says (no pass, no catch)."""
+    return CheckFailed(
+        f"pytest did not finish its run of {path} on {against}: the process ended (exit "
+        f"code {run.exit}) before pytest reported. Does a test end the process?\n{run.tail()}"
+    )
 
 
 def module_under_test(source: str) -> types.ModuleType:
@@ -178,7 +216,9 @@ def main(argv: list[str] | None = None) -> int:
     print(received(source), flush=True)
     del source
     options = ["-p", "no:cacheprovider", "-c", "/dev/null", "--rootdir", "."]
-    return int(pytest.main([*options, "-q", "-rfE", "--color=no", "--no-header", path]))
+    code = int(pytest.main([*options, "-q", "-rfE", "--color=no", "--no-header", path]))
+    print(f"\n{FINISHED}{code}", flush=True)
+    return code
 
 
 deferrable(globals())
