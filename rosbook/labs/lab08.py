@@ -8,8 +8,9 @@ module under test on its stdin (``wall_stopper.variant``: one variant's code, no
 that names it), makes it that module, closes its stdin, and says the digest of what it
 got before pytest starts; a run whose digest is not the sent one is no verdict. When
 graded, the judge starts that process as the student, in the student's sandbox and
-folder (``Judgement.wrap``), and reads its exit code itself: pytest's own verdict on the
-student's tests. A bug is named by what it does (``wall_stopper.BUGS``), never by
+folder (``Judgement.wrap``). The verdict is what ``pytest.main`` returned, said on the
+process's last line (``FINISHED``), not the exit code the judge is told (a loaded
+machine once gave it 0 for a failed run). A bug is named by what it does (``wall_stopper.BUGS``), never by
 anything the tests can read, and the hidden tests also try them on a correct node
 written differently (``rewrite``), which a test that recognises the code fails on.
 """
