@@ -48,7 +48,8 @@ from rosbook.labs.probes import TimedOut, rclpy_raced
 from rosbook.labs.remote import JudgeTimeout, Kernel
 from rosbook.runtime.session import ros
 
-#: Wall-clock guard on one verdict (a hang guard: hitting it is a "timeout").
+#: Wall-clock guard on one verdict (a hang guard: hitting it is a "timeout"), or the
+#: cell's own limit when that is longer (``verdicts.verdict_guard``).
 VERDICT_GUARD_S = 300.0
 #: A cell whose first run hit a guard sooner than this runs once more (both runs fit
 #: in the guard on its verdict as long as the second is no slower than twice the first).

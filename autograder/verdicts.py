@@ -44,6 +44,14 @@ from autograder.judge import (
 )
 from autograder.kernels import CappedExecute, not_run_output
 
+
+def verdict_guard(cell_timeout: float | None) -> float:
+    """How long the grader waits for the judge's verdict on one cell: never less than
+    the cell's limit, which each of the cell's own waits may take (``Judgement.guard``),
+    so a limit raised for a slow machine raises this one too."""
+    return max(VERDICT_GUARD_S, cell_timeout or 0.0)
+
+
 #: Run silently in the kernel just before a judged test cell: its checks are deferred.
 DEFER_CELL = "__import__('rosbook.labs.deferral', fromlist=['_']).defer_this_cell()"
 
@@ -108,7 +116,7 @@ class Judging:
         try:
             self.process.stdin.write(json.dumps(request) + "\n")
             self.process.stdin.flush()
-            line = _read_line(self.process, VERDICT_GUARD_S)
+            line = _read_line(self.process, verdict_guard(cell_timeout))
         except OSError:
             line = ""
         if line is None:

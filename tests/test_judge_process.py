@@ -20,7 +20,7 @@ from typing import Any
 import nbformat
 import pytest
 
-from autograder import judge, sandbox
+from autograder import judge, sandbox, verdicts
 from autograder.verdicts import judging
 from rosbook.labs import remote
 from rosbook.runtime.kernels import UnixSocketKernelManager
@@ -33,6 +33,14 @@ from tests.labtools import (
     solution_answers,
     strip_markers,
 )
+
+
+def test_a_verdict_is_awaited_at_least_as_long_as_the_cells_own_limit() -> None:
+    """A cell whose checks run several guarded programs (lab 8 runs pytest seven times)
+    may take longer than the verdict guard on a loaded machine: a raised cell limit
+    (``--timeout``) raises the wait for its verdict too, so it is a verdict, not a timeout."""
+    assert verdicts.verdict_guard(600) == 600
+    assert verdicts.verdict_guard(None) == verdicts.verdict_guard(60) == verdicts.VERDICT_GUARD_S
 
 
 def test_the_judge_starts_with_the_submission_before_any_cell() -> None:
