@@ -8,7 +8,14 @@ from pathlib import Path
 import nbformat
 import pytest
 
-from tests.labtools import answered, grade, replace_in_answer, submit, with_round_trip
+from tests.labtools import (
+    answered,
+    grade,
+    replace_in_answer,
+    status_and_score,
+    submit,
+    with_round_trip,
+)
 from tests.labtools import feedback as feedback_html
 
 #: The whole lab graded as a class: minutes (`make test-fast` leaves it out).
@@ -74,8 +81,7 @@ def feedback(out: Path, student: str, lab: str) -> str:
 
 
 def score(graded: tuple[dict, Path], student: str) -> tuple[str, str]:
-    r = graded[0][(student, LAB)]
-    return r["status"], r["score"]
+    return status_and_score(graded, LAB, student)
 
 
 def test_right_submission_scores_full_marks_and_shows_the_robot(graded) -> None:

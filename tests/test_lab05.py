@@ -22,6 +22,7 @@ from tests.labtools import (
     grade_lab,
     grade_rows,
     replace_in_answer,
+    status_and_score,
     submit,
 )
 from tests.slowdown import slow_machine
@@ -93,13 +94,11 @@ def fixtures() -> dict[str, object]:
 def graded(
     tmp_path_factory: pytest.TempPathFactory, round_trip: tuple[dict, Path]
 ) -> tuple[dict, Path]:
-    submissions = {k: v for k, v in fixtures().items() if k != "right"}  # in the round trip
-    return grade_lab(tmp_path_factory, round_trip, LAB, submissions, cell_timeout=40)
+    return grade_lab(tmp_path_factory, round_trip, LAB, fixtures(), cell_timeout=40)
 
 
 def score(graded: tuple[dict, Path], student: str) -> tuple[str, str]:
-    row = graded[0][(student, LAB)]
-    return row["status"], row["score"]
+    return status_and_score(graded, LAB, student)
 
 
 def page(graded: tuple[dict, Path], student: str) -> str:

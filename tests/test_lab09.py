@@ -19,6 +19,7 @@ from tests.labtools import (
     grade_lab,
     hidden_only_lines,
     replace_in_answer,
+    status_and_score,
 )
 
 #: The whole lab graded as a class: minutes (`make test-fast` leaves it out).
@@ -56,13 +57,11 @@ def fixtures() -> dict[str, object]:
 def graded(
     tmp_path_factory: pytest.TempPathFactory, round_trip: tuple[dict, Path]
 ) -> tuple[dict, Path]:
-    submissions = {k: v for k, v in fixtures().items() if k != "right"}  # in the round trip
-    return grade_lab(tmp_path_factory, round_trip, LAB, submissions, cell_timeout=120)
+    return grade_lab(tmp_path_factory, round_trip, LAB, fixtures(), cell_timeout=120)
 
 
 def score(graded: tuple[dict, Path], student: str) -> tuple[str, str]:
-    row = graded[0][(student, LAB)]
-    return row["status"], row["score"]
+    return status_and_score(graded, LAB, student)
 
 
 def page(graded: tuple[dict, Path], student: str) -> str:
