@@ -29,6 +29,7 @@ import pytest
 import rclpy
 
 from rosbook.book.pages import ROOT
+from rosbook.labs.probes import rclpy_raced
 from rosbook.runtime import wheels
 from rosbook.runtime.isolation import BASE_ENV, RUN_MARKER
 
@@ -171,7 +172,9 @@ def test_a_talker_and_a_listener_talk_there_after_import_rosbook(layout: Layout)
                 talker_out, talker_err = talker.communicate(timeout=RUN_TIMEOUT_S)
     assert listener.returncode == 0, err + talker_err
     assert out.strip() == "heard: hello from outside a venv", out + err
-    assert talker.returncode in (0, -15), talker_err
+    # how the talker ends on SIGTERM is not what this test checks, only that it raised
+    # nothing but rclpy's own race (its handler shut the context while spin() waited)
+    assert talker.returncode in (0, -15) or rclpy_raced(talker_err), talker_err
 
 
 @pytest.mark.slow
