@@ -14,6 +14,7 @@ import glob
 import json
 import os
 import re
+import shutil
 import signal
 import socket
 import subprocess
@@ -23,6 +24,7 @@ import time
 import urllib.error
 import urllib.request
 from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Any, TypeVar
 from urllib.parse import parse_qs, quote, urlencode, urlparse
@@ -32,7 +34,7 @@ import psutil
 import pytest
 
 from autograder.config import ROOT
-from autograder.sandbox import process_tree
+from autograder.sandbox import process_tree, staging_base
 from coursehub.hub import COURSE, add, serve, stop
 from rosbook.runtime.isolation import child_env
 from tests.labtools import answered, assert_counted_from_zero
@@ -68,6 +70,25 @@ def _alive(processes: dict[int, str]) -> list[str]:
     return alive
 
 
+@contextmanager
+def own_tmpdir() -> Iterator[Path]:
+    """A temporary folder for one hub alone (its ``TMPDIR``), made where the hub makes its
+    sandboxes' private folders (``staging_base``), so the sandbox's user can enter it.
+    The tests' hubs run at once under pytest-xdist with students of the same names, and
+    each checks that its own students' folders are gone, not the others'."""
+    folder = Path(tempfile.mkdtemp(prefix="hub-tmp-", dir=staging_base()))
+    folder.chmod(0o755)
+    try:
+        yield folder
+    finally:
+        shutil.rmtree(folder, ignore_errors=True)
+
+
+def leftovers(tmp: Path, name: str) -> list[str]:
+    """What is left of ``name``'s sandboxes' private folders in a hub's ``tmp``."""
+    return glob.glob(os.path.join(tmp, f"rosbook-hub-{name}-*"))
+
+
 @pytest.fixture(scope="module")
 def hub(tmp_path_factory: pytest.TempPathFactory) -> Iterator[dict[str, Any]]:
     """``make hub`` with three students and an instructor; yields its URL, state folder,
@@ -84,23 +105,28 @@ def hub(tmp_path_factory: pytest.TempPathFactory) -> Iterator[dict[str, Any]]:
         )
         nbformat.write(notebook, home / f"{LAB}.ipynb")
         nbformat.write(answered(LAB), home / "answers.ipynb")  # what they will submit
-    env = child_env()
-    env.update(
-        ROSBOOK_HUB_DIR=str(state),
-        ROSBOOK_HUB_LAB_ARGS="--LabApp.expose_app_in_browser=True",
-        ROS_DOMAIN_ID="0",  # every student in one domain: only their networks part them
-    )
-    log = (state / "hub.log").open("w")
-    try:
-        server, url = serve(env, log)
-    except (RuntimeError, TimeoutError) as exc:
-        log.close()
-        pytest.fail(f"{exc}:\n" + Path(log.name).read_text())
-    try:
-        yield {"url": url, "state": state, "server": server, "passwords": passwords}
-    finally:
-        stop(server, STOP_S)
-        log.close()
+    with own_tmpdir() as tmp:
+        env = child_env()
+        env.update(
+            ROSBOOK_HUB_DIR=str(state),
+            ROSBOOK_HUB_LAB_ARGS="--LabApp.expose_app_in_browser=True",
+            ROS_DOMAIN_ID="0",  # every student in one domain: only their networks part them
+            TMPDIR=str(tmp),
+        )
+        log = (state / "hub.log").open("w")
+        try:
+            server, url = serve(env, log)
+        except (RuntimeError, TimeoutError) as exc:
+            log.close()
+            pytest.fail(f"{exc}:\n" + Path(log.name).read_text())
+        try:
+            yield {
+                "url": url, "state": state, "server": server, "passwords": passwords,
+                "tmp": tmp,
+            }  # fmt: skip
+        finally:
+            stop(server, STOP_S)
+            log.close()
 
 
 def _log_in(browser: Any, url: str, name: str, password: str, then: str = "") -> Any:
@@ -296,7 +322,7 @@ def test_students_are_isolated_and_nothing_survives_the_hub(browser, hub) -> Non
     hub["server"].wait(timeout=STOP_S)
     assert _alive(processes) == []
     for name in STUDENTS:  # nothing of theirs is left: no sandbox's files, no mounted home
-        assert glob.glob(os.path.join(tempfile.gettempdir(), f"rosbook-hub-{name}-*")) == []
+        assert leftovers(hub["tmp"], name) == []
         assert not os.path.ismount(state / "home" / name), name
 
 

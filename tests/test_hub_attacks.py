@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import asyncio
 import concurrent.futures
-import glob
 import json
 import os
 import re
@@ -38,7 +37,7 @@ from autograder.sandbox import HOME, NOBODY, Network, enter_argv, prepare, proce
 from autograder.worker import MAX_NOTEBOOK_BYTES
 from coursehub import hub, relay, safefs
 from rosbook.runtime.isolation import child_env
-from tests.test_hub import _alive
+from tests.test_hub import _alive, leftovers, own_tmpdir
 
 LAB = "lab01_nodes_topics"
 STUDENTS = ("ada", "ben")
@@ -387,22 +386,24 @@ def attacked(tmp_path_factory: pytest.TempPathFactory) -> Iterator[dict[str, Any
         {HOME: home, hub.RUN: run, hub.EXCHANGE: state / "exchange" / "ada"},
         script,
     )
-    env = child_env()
-    env.update(ROSBOOK_HUB_DIR=str(state), ROSBOOK_HUB_QUOTA_MB=str(QUOTA_MB))
-    log = (state / "hub.log").open("w")
-    try:
-        server, url = hub.serve(env, log)
-    except (RuntimeError, TimeoutError) as exc:
-        log.close()
-        pytest.fail(f"{exc}:\n" + Path(log.name).read_text())
-    try:
-        yield {
-            "url": url, "state": state, "server": server, "passwords": passwords,
-            "targets": targets, "labconfig": labconfig, "made": made, "log": Path(log.name),
-        }  # fmt: skip
-    finally:
-        hub.stop(server, START_S)
-        log.close()
+    with own_tmpdir() as tmp:
+        env = child_env()
+        env.update(ROSBOOK_HUB_DIR=str(state), ROSBOOK_HUB_QUOTA_MB=str(QUOTA_MB), TMPDIR=str(tmp))
+        log = (state / "hub.log").open("w")
+        try:
+            server, url = hub.serve(env, log)
+        except (RuntimeError, TimeoutError) as exc:
+            log.close()
+            pytest.fail(f"{exc}:\n" + Path(log.name).read_text())
+        try:
+            yield {
+                "url": url, "state": state, "server": server, "passwords": passwords,
+                "targets": targets, "labconfig": labconfig, "made": made, "tmp": tmp,
+                "log": Path(log.name),
+            }  # fmt: skip
+        finally:
+            hub.stop(server, START_S)
+            log.close()
 
 
 @needs_root
@@ -552,7 +553,7 @@ def test_sigterm_to_make_hub_stops_every_process_and_leaves_no_folder(attacked) 
     os.kill(server.pid, signal.SIGTERM)
     server.wait(timeout=START_S)
     _wait_for(lambda: not _alive(processes), "processes of the hub outlived it")
-    assert glob.glob(os.path.join(tempfile.gettempdir(), "rosbook-hub-ada-*")) == []
+    assert leftovers(attacked["tmp"], "ada") == []
     assert not os.path.ismount(attacked["state"] / "home" / "ada")
 
 

@@ -298,10 +298,12 @@ def lookup(
     found: Callable[[Node], bool], node: Node | None = None, *, timeout: float = SETTLE_TIMEOUT_S
 ) -> bool:
     """Whether ``found(observer)`` holds: True as soon as discovery shows it, False once
-    the graph has settled without it (``settle``), e.g. ``ros2 topic info`` asking for
+    the graph has settled without it (``settle``, after one announcement period at least,
+    as a listing waits: an older participant may only be heard when it next announces
+    itself), e.g. ``ros2 topic info`` asking for
     ``lookup(lambda g: '/chatter' in dict(g.get_topic_names_and_types()))``."""
     watcher = observer(node)
-    settle(watcher, timeout=timeout, until=lambda: found(watcher))
+    settle(watcher, at_least=ANNOUNCE_PERIOD_S, timeout=timeout, until=lambda: found(watcher))
     return found(watcher)
 
 
