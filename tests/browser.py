@@ -19,8 +19,10 @@ from typing import Any
 
 import pytest
 
+from rosbook.book import pages as bookpages
 from rosbook.book.chromium import chromium_path, launch
 from rosbook.book.pages import ROOT
+from rosbook.book.site import DESKTOP, PHONE
 from rosbook.runtime.isolation import RUN_MARKER
 
 
@@ -87,4 +89,33 @@ def axe_violations(page: Any) -> list[str]:
         f" {rule['nodes'][0]['target']}): {rule['help']}"
         for rule in found["violations"]
         if rule["impact"] in AXE_IMPACTS
+    ]
+
+
+#: The viewports the book is read in.
+SIZES = {"desktop": DESKTOP, "phone": PHONE}
+
+
+def pages(built_book: Path) -> list[str]:
+    """Every page of the book (not the theme's template fragments under _static/)."""
+    return sorted(
+        str(p.relative_to(built_book))
+        for p in built_book.rglob("*.html")
+        if p.relative_to(built_book).parts[0] != "_static"
+    )
+
+
+def scene_pages(built_book: Path) -> list[str]:
+    return [
+        p
+        for p in pages(built_book)
+        if 'class="rosbook-meshcat-scene"' in (built_book / p).read_text()
+    ]
+
+
+def robots_in(built_book: Path, page: str) -> list[list[str]]:
+    """For each scene of ``page``, the names of the robots drawn in it (``/meshcat/<name>``)."""
+    return [
+        sorted({c["path"].split("/")[2] for c in scene if "/visual_" in c.get("path", "")})
+        for scene in bookpages.scene_commands((built_book / page).read_text())
     ]

@@ -6,6 +6,7 @@ import fcntl
 import hashlib
 import os
 import shutil
+import tempfile
 from collections.abc import Callable, Iterator
 from pathlib import Path
 
@@ -86,6 +87,14 @@ def session() -> Iterator[Session]:
     ros.init()
     yield ros
     ros.reset()
+
+
+@pytest.fixture
+def private() -> Iterator[Path]:
+    """A folder of the grader's for a sandbox (in /tmp: nobody can reach it when root)."""
+    folder = Path(tempfile.mkdtemp(prefix="rosbook-test-sandbox-"))
+    yield folder
+    shutil.rmtree(folder, ignore_errors=True)
 
 
 #: Executed chapters kept between test runs: ``<BOOK_CACHE>/<key>/`` is jupyter-cache's

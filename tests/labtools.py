@@ -14,6 +14,7 @@ import csv
 import os
 import re
 import shutil
+import sys
 from pathlib import Path
 
 import nbformat
@@ -107,6 +108,18 @@ def submit(
         path.write_text(notebook)
     else:
         nbformat.write(notebook, path)
+
+
+#: Seconds: only a guard against a hung grading run, never a verdict.
+HANG = 900.0
+
+
+def grade_cmd(submissions: Path, out: Path, lab: str, *extra: str) -> list[str]:
+    """The instructor's command that grades ``lab`` of ``submissions`` into ``out``."""
+    return [
+        sys.executable, "-m", "autograder", "grade", str(submissions), "--assignment", lab,
+        "--out", str(out), *extra,
+    ]  # fmt: skip
 
 
 def grade(submissions: Path, out: Path, **kwargs: object) -> dict[tuple[str, str], dict[str, str]]:
@@ -278,3 +291,34 @@ def lab01_wrong() -> nbformat.NotebookNode:
     )
     fixes.update(talker)
     return answered(LAB01, **fixes)
+
+
+#: Labs 2, 4 and 5, some of whose wrong submissions the attack tests grade too.
+LAB02, LAB04, LAB05 = "lab02_qos", "lab04_urdf", "lab05_diff_drive"
+
+
+def lab02_volatile_map_publisher() -> nbformat.NotebookNode:
+    """Lab 2's map published VOLATILE: a late subscriber never gets it."""
+    return answered(
+        LAB02,
+        **replace_in_answer(
+            LAB02, "map_publisher", "DurabilityPolicy.TRANSIENT_LOCAL", "DurabilityPolicy.VOLATILE"
+        ),
+    )
+
+
+def lab04_axis_wrong() -> nbformat.NotebookNode:
+    """Wheel axes 0 0 1 (the robot rolls backwards), and an arm that counts q1 twice."""
+    fixes = replace_in_answer(
+        LAB04, "diff_drive_urdf", '<axis xyz="0 0 -1"/>', '<axis xyz="0 0 1"/>'
+    )
+    fixes.update(replace_in_answer(LAB04, "arm_fk", "rotation_z(q2)", "rotation_z(q1 + q2)"))
+    return answered(LAB04, **fixes)
+
+
+def lab05_swapped() -> nbformat.NotebookNode:
+    """Lab 5's wheel speeds returned right, left: the robot turns the wrong way."""
+    return answered(
+        LAB05,
+        **replace_in_answer(LAB05, "wheel_speeds", "return left, right", "return right, left"),
+    )

@@ -18,38 +18,11 @@ from urllib.parse import unquote, urljoin, urlsplit
 
 import pytest
 
-from rosbook.book import pages as bookpages
-from rosbook.book.site import DESKTOP, PHONE, visit
-from tests.browser import axe_violations
+from rosbook.book.site import visit
+from tests.browser import SIZES, axe_violations, pages, scene_pages
 
 MB = 1_000_000
 FIRST_PAGE = "book/intro.html"
-SIZES = {"desktop": DESKTOP, "phone": PHONE}
-
-
-def pages(built_book: Path) -> list[str]:
-    """Every page of the book (not the theme's template fragments under _static/)."""
-    return sorted(
-        str(p.relative_to(built_book))
-        for p in built_book.rglob("*.html")
-        if p.relative_to(built_book).parts[0] != "_static"
-    )
-
-
-def scene_pages(built_book: Path) -> list[str]:
-    return [
-        p
-        for p in pages(built_book)
-        if 'class="rosbook-meshcat-scene"' in (built_book / p).read_text()
-    ]
-
-
-def robots_in(built_book: Path, page: str) -> list[list[str]]:
-    """For each scene of ``page``, the names of the robots drawn in it (``/meshcat/<name>``)."""
-    return [
-        sorted({c["path"].split("/")[2] for c in scene if "/visual_" in c.get("path", "")})
-        for scene in bookpages.scene_commands((built_book / page).read_text())
-    ]
 
 
 def _maths_problems(page: object, name: str, width: int) -> list[str]:

@@ -18,7 +18,7 @@ from PIL import Image
 from rosbook.book import pages as bookpages
 from rosbook.book.site import scene_ids, scroll_off_screen, visit, wait_for_first_frame
 from rosbook.book.stills import PRINT_CLASS, STILL_CLASS
-from tests.test_book_browser import SIZES, robots_in, scene_pages
+from tests.browser import SIZES, robots_in, scene_pages
 
 
 def _box_png(page: object, scene: str) -> np.ndarray:

@@ -16,8 +16,7 @@ from traitlets.config import Config
 
 from autograder import cgroups, kernels, sandbox
 from autograder.kernels import IpcKernelManager
-from tests.test_sandbox import private as private  # noqa: F401 - a fixture used here
-from tests.test_sandbox import ros_env
+from tests.sandboxtools import ros_env
 
 #: A hang guard (a loaded machine is slow): hitting it says "timeout".
 GUARD = 120.0

@@ -15,7 +15,7 @@ import rclpy
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.lifecycle import LifecycleNode, State, TransitionCallbackReturn
 
-from tests.test_cli_upstream import Run, fixture_process, run_ros2
+from tests.clitools import Run, fixture_process, run_ros2
 
 VISIBLE, HIDDEN = "/test_lifecycle_node", "/_hidden_test_lifecycle_node"
 

@@ -12,7 +12,6 @@ ported.
 from __future__ import annotations
 
 import ast
-import contextlib
 import io
 import math
 import os
@@ -22,23 +21,21 @@ import subprocess
 import sys
 import threading
 import xml.etree.ElementTree as ET
-from collections.abc import Callable, Iterator
+from collections.abc import Iterator
 from pathlib import Path
-from typing import TYPE_CHECKING, NamedTuple
+from typing import TYPE_CHECKING
 
 import pytest
 import yaml
 
 from rosbook import ros
-from rosbook.cli import main
-from rosbook.runtime import graph
+from tests.clitools import Run, fixture_process, run_ros2
 
 if TYPE_CHECKING:
-    from rclpy.node import Node
+    pass
 
 pytestmark = pytest.mark.filterwarnings("ignore::DeprecationWarning")
 
-FIXTURES = Path(__file__).with_name("fixtures_upstream.py")
 #: Guards against a hang only: the waits below end on an event.
 HANG_S = 90.0
 #: Every node of the fixture process (the two /twin nodes share one name).
@@ -57,24 +54,7 @@ FIXTURE_NODES = {
 }
 
 
-class Run(NamedTuple):
-    code: int
-    out: str
-    err: str
-
-
 _RUNS: dict[tuple[str, ...], Run] = {}
-
-
-def run_ros2(*argv: str) -> Run:
-    """``ros2 ARGV`` run in this process: exit code, stdout, stderr."""
-    out, err = io.StringIO(), io.StringIO()
-    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
-        try:
-            code = main(list(argv))
-        except SystemExit as exit:  # argparse
-            code = int(exit.code or 0)
-    return Run(code, out.getvalue(), err.getvalue())
 
 
 def ros2(*argv: str) -> Run:
@@ -82,30 +62,6 @@ def ros2(*argv: str) -> Run:
     if argv not in _RUNS:
         _RUNS[argv] = run_ros2(*argv)
     return _RUNS[argv]
-
-
-@contextlib.contextmanager
-def fixture_process(*argv: str, up: Callable[[Node], bool]) -> Iterator[None]:
-    """``tests/fixtures_upstream.py ARGV`` as a process of its own, until ``up(observer)``
-    holds (the limit only guards against a hang); stopped afterwards."""
-    process = subprocess.Popen(
-        [sys.executable, str(FIXTURES), *argv],
-        stderr=subprocess.PIPE,
-        text=True,
-        start_new_session=True,
-    )
-    try:
-        assert graph.wait_for(up, timeout=60.0), (
-            f"timeout: the fixture nodes {argv} did not come up"
-        )
-        yield
-    finally:
-        os.killpg(process.pid, signal.SIGINT)
-        try:
-            process.wait(timeout=30)
-        except subprocess.TimeoutExpired:
-            os.killpg(process.pid, signal.SIGKILL)
-            process.wait()
 
 
 @pytest.fixture(scope="module", autouse=True)

@@ -20,31 +20,15 @@ import pytest
 from nbgrader.api import Gradebook
 
 from autograder.config import ROOT
-from tests.labtools import answered, marked_processes, submit
+from tests.labtools import HANG, answered, grade_cmd, marked_processes, submit
 from tests.servers import server_url
 
 LAB = "lab01_nodes_topics"
-HANG = 900.0  # seconds: only a guard against a hung run, never a verdict
-
-
-def grade_cmd(submissions: Path, out: Path, *extra: str) -> list[str]:
-    return [
-        sys.executable,
-        "-m",
-        "autograder",
-        "grade",
-        str(submissions),
-        "--assignment",
-        LAB,
-        "--out",
-        str(out),
-        *extra,
-    ]
 
 
 def run_grade(submissions: Path, out: Path, *extra: str) -> subprocess.CompletedProcess[str]:
     return subprocess.run(
-        grade_cmd(submissions, out, *extra),
+        grade_cmd(submissions, out, LAB, *extra),
         capture_output=True,
         text=True,
         cwd=ROOT,
@@ -99,7 +83,7 @@ def test_progress_is_one_plain_line_per_submission_when_not_a_terminal(
 def test_progress_is_one_updating_line_on_a_terminal(quick_class: Path, tmp_path: Path) -> None:
     leader, follower = pty.openpty()
     proc = subprocess.Popen(
-        grade_cmd(quick_class, tmp_path / "out", "--workers", "1"),
+        grade_cmd(quick_class, tmp_path / "out", LAB, "--workers", "1"),
         stdout=subprocess.DEVNULL,
         stderr=follower,
         cwd=ROOT,
@@ -179,7 +163,7 @@ def interrupted_class(tmp_path_factory: pytest.TempPathFactory) -> dict:
     seen: dict = {"out": out, "root": root}
 
     first = subprocess.Popen(
-        grade_cmd(root, out, "--workers", "1"), stderr=subprocess.PIPE, text=True, cwd=ROOT
+        grade_cmd(root, out, LAB, "--workers", "1"), stderr=subprocess.PIPE, text=True, cwd=ROOT
     )
     wait_for_rows(out, 1, first)
     first.send_signal(signal.SIGINT)
@@ -189,7 +173,7 @@ def interrupted_class(tmp_path_factory: pytest.TempPathFactory) -> dict:
     seen["left_after_ctrl_c"] = marked_processes(first.pid)
 
     second = subprocess.Popen(
-        grade_cmd(root, out, "--workers", "1", "--resume"),
+        grade_cmd(root, out, LAB, "--workers", "1", "--resume"),
         stderr=subprocess.PIPE,
         text=True,
         cwd=ROOT,
@@ -355,7 +339,7 @@ def test_dask_workers_grade_like_local_and_retry_a_killed_workers_submission(
     address, workers = dask_cluster
     out = tmp_path / "out"
     run = subprocess.Popen(
-        grade_cmd(interrupted_class["root"], out, "--scheduler", address),
+        grade_cmd(interrupted_class["root"], out, LAB, "--scheduler", address),
         stderr=subprocess.PIPE,
         text=True,
         cwd=ROOT,

@@ -10,21 +10,17 @@ network of its own). Stopping the hub must leave no process of any student.
 
 from __future__ import annotations
 
-import glob
 import json
 import os
 import re
-import shutil
 import signal
 import socket
 import subprocess
 import sys
-import tempfile
 import time
 import urllib.error
 import urllib.request
 from collections.abc import Callable, Iterator
-from contextlib import contextmanager
 from pathlib import Path
 from typing import Any, TypeVar
 from urllib.parse import parse_qs, quote, urlencode, urlparse
@@ -34,59 +30,20 @@ import psutil
 import pytest
 
 from autograder.config import ROOT
-from autograder.sandbox import process_tree, staging_base
+from autograder.sandbox import process_tree
 from coursehub.hub import COURSE, add, serve, stop
 from rosbook.runtime.isolation import child_env
+from tests.jupyterlab_ui import CELL_S, START_S, cell_index, run_cell, terminal, wait_for_notebook
 from tests.labtools import answered, assert_counted_from_zero
-from tests.test_jupyterlab import (
-    CELL_S,
-    LAB,
-    START_S,
-    _index,
-    _run_cell,
-    _terminal,
-    _wait_for_notebook,
-)
+from tests.servers import leftovers, own_tmpdir, still_running
 
 T = TypeVar("T")
 
+LAB = "lab01_nodes_topics"
 STUDENTS = ("ada", "ben", "cyd")
 INSTRUCTOR = "prof"
 STOP_S = 120  # a hang guard for the hub's stop
 GRADE_S = 900  # a hang guard for the instructor's commands (grading three on a busy machine)
-
-
-def _alive(processes: dict[int, str]) -> list[str]:
-    alive = []
-    for pid, start in processes.items():
-        try:
-            stat = Path(f"/proc/{pid}/stat").read_text()
-            cmdline = Path(f"/proc/{pid}/cmdline").read_bytes().replace(b"\0", b" ")
-        except OSError:
-            continue
-        fields = stat.rsplit(")", 1)[1].split()
-        if fields[19] == start and fields[0] != "Z":  # a zombie runs nothing: it is dead
-            alive.append(f"{pid} {cmdline.decode(errors='replace')[:160]}")
-    return alive
-
-
-@contextmanager
-def own_tmpdir() -> Iterator[Path]:
-    """A temporary folder for one hub alone (its ``TMPDIR``), made where the hub makes its
-    sandboxes' private folders (``staging_base``), so the sandbox's user can enter it.
-    The tests' hubs run at once under pytest-xdist with students of the same names, and
-    each checks that its own students' folders are gone, not the others'."""
-    folder = Path(tempfile.mkdtemp(prefix="hub-tmp-", dir=staging_base()))
-    folder.chmod(0o755)
-    try:
-        yield folder
-    finally:
-        shutil.rmtree(folder, ignore_errors=True)
-
-
-def leftovers(tmp: Path, name: str) -> list[str]:
-    """What is left of ``name``'s sandboxes' private folders in a hub's ``tmp``."""
-    return glob.glob(os.path.join(tmp, f"rosbook-hub-{name}-*"))
 
 
 @pytest.fixture(scope="module")
@@ -217,7 +174,7 @@ def test_release_submit_grade_and_feedback(browser, hub, tmp_path: Path) -> None
             timeout=CELL_S * 1000
         )  # fetched: the tab lists it as downloaded
         solve = "true" if name == STUDENTS[-1] else f"cp ~/answers.ipynb ~/{LAB}/{LAB}.ipynb"
-        _terminal(
+        terminal(
             page,
             f"({solve} && nbgrader validate {LAB}/{LAB}.ipynb) > ~/flow.txt 2>&1;"
             " echo end-of-flow >> ~/flow.txt",
@@ -288,16 +245,16 @@ def test_students_are_isolated_and_nothing_survives_the_hub(browser, hub) -> Non
         page.wait_for_url(
             f"{url}/user/{name}/{notebook}", timeout=START_S * 1000, wait_until="commit"
         )
-        _wait_for_notebook(page)
+        wait_for_notebook(page)
     for name, page in pages.items():
-        _run_cell(page, _index(page, "from rosbook.labs import lab01 as checks"))
-        _run_cell(page, _index(page, "class CounterPublisher(Node)"))
-        try_it = _run_cell(page, _index(page, "ros.spin_for(1.6)"))
+        run_cell(page, cell_index(page, "from rosbook.labs import lab01 as checks"))
+        run_cell(page, cell_index(page, "class CounterPublisher(Node)"))
+        try_it = run_cell(page, cell_index(page, "ros.spin_for(1.6)"))
         assert_counted_from_zero(f"{name}: {try_it}")
-        assert "Error" not in _run_cell(page, _index(page, f"only_{name}")), name
+        assert "Error" not in run_cell(page, cell_index(page, f"only_{name}")), name
     # every student's graph, from their own terminal, while all their nodes live
     for page in pages.values():
-        _terminal(page, "ros2 node list > ~/nodes.txt 2>&1; echo end-of-list >> ~/nodes.txt")
+        terminal(page, "ros2 node list > ~/nodes.txt 2>&1; echo end-of-list >> ~/nodes.txt")
     for name in STUDENTS:
         home = state / "home" / name
         nodes = _wait_for_text(home / "nodes.txt", "end-of-list").split()
@@ -306,21 +263,21 @@ def test_students_are_isolated_and_nothing_survives_the_hub(browser, hub) -> Non
         assert nodes.count("/counter_publisher") == 1, (name, nodes)
     # a student's files are theirs alone: no other home exists in the sandbox
     page = pages[STUDENTS[0]]
-    _terminal(page, f"ls -a /home {state} > ~/seen.txt 2>&1; echo end-of-ls >> ~/seen.txt")
+    terminal(page, f"ls -a /home {state} > ~/seen.txt 2>&1; echo end-of-ls >> ~/seen.txt")
     seen = _wait_for_text(state / "home" / STUDENTS[0] / "seen.txt", "end-of-ls")
     assert "student" in seen and "No such file" in seen, seen
     assert not any(other in seen for other in STUDENTS[1:]), seen
 
     # the hub's stop ends every process of every student
     processes = process_tree(hub["server"].pid)
-    kernels = [p for p in _alive(processes) if "ipykernel" in p]
+    kernels = [p for p in still_running(processes) if "ipykernel" in p]
     assert len(kernels) >= len(STUDENTS), kernels  # the walk sees the sandboxes' insides
     for page in pages.values():
         page.context.close()
     # as an instructor's Ctrl-C, to the hub alone (not its process group)
     os.kill(int((state / "jupyterhub.pid").read_text()), signal.SIGINT)
     hub["server"].wait(timeout=STOP_S)
-    assert _alive(processes) == []
+    assert still_running(processes) == []
     for name in STUDENTS:  # nothing of theirs is left: no sandbox's files, no mounted home
         assert leftovers(hub["tmp"], name) == []
         assert not os.path.ismount(state / "home" / name), name

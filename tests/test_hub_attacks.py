@@ -37,7 +37,7 @@ from autograder.sandbox import HOME, NOBODY, Network, enter_argv, prepare, proce
 from autograder.worker import MAX_NOTEBOOK_BYTES
 from coursehub import hub, relay, safefs
 from rosbook.runtime.isolation import child_env
-from tests.test_hub import _alive, leftovers, own_tmpdir
+from tests.servers import leftovers, own_tmpdir, still_running
 
 LAB = "lab01_nodes_topics"
 STUDENTS = ("ada", "ben")
@@ -552,7 +552,7 @@ def test_sigterm_to_make_hub_stops_every_process_and_leaves_no_folder(attacked) 
     assert any("jupyterhub-singleuser" in _cmdline(pid) for pid in processes), processes
     os.kill(server.pid, signal.SIGTERM)
     server.wait(timeout=START_S)
-    _wait_for(lambda: not _alive(processes), "processes of the hub outlived it")
+    _wait_for(lambda: not still_running(processes), "processes of the hub outlived it")
     assert leftovers(attacked["tmp"], "ada") == []
     assert not os.path.ismount(attacked["state"] / "home" / "ada")
 

@@ -10,21 +10,20 @@ import nbformat
 import pytest
 
 from autograder.check import check, report
-from tests.labtools import answered, feedback, grade, replace_in_answer, submit, with_round_trip
+from tests.labtools import (
+    answered,
+    feedback,
+    grade,
+    lab02_volatile_map_publisher,
+    replace_in_answer,
+    submit,
+    with_round_trip,
+)
 
 #: The whole lab graded as a class: minutes (`make test-fast` leaves it out).
 pytestmark = pytest.mark.slow
 
 LAB = "lab02_qos"
-
-
-def volatile_map_publisher() -> nbformat.NotebookNode:
-    return answered(
-        LAB,
-        **replace_in_answer(
-            LAB, "map_publisher", "DurabilityPolicy.TRANSIENT_LOCAL", "DurabilityPolicy.VOLATILE"
-        ),
-    )
 
 
 def reliable_scan_subscription() -> nbformat.NotebookNode:
@@ -55,7 +54,7 @@ def graded(
     tmp_path_factory: pytest.TempPathFactory, round_trip: tuple[dict, Path]
 ) -> tuple[dict, Path]:
     root = tmp_path_factory.mktemp("submissions")
-    submit(root, "volatile_map", LAB, volatile_map_publisher())
+    submit(root, "volatile_map", LAB, lab02_volatile_map_publisher())
     submit(root, "reliable_scan", LAB, reliable_scan_subscription())
     submit(root, "off_by_one", LAB, off_by_one_model())
     submit(root, "no_deadline_rule", LAB, durability_rule_reversed())

@@ -11,6 +11,7 @@ import pytest
 from tests.labtools import (
     answered,
     grade,
+    lab04_axis_wrong,
     replace_in_answer,
     status_and_score,
     submit,
@@ -29,13 +30,6 @@ NAIVE_SEPARATION = """def wheel_separation(urdf_string):
     right = robot.model.joint_map[robot.parent_joint('right_wheel').name].origin[:3, 3]
     return float(np.linalg.norm(left - right))
 """
-
-
-def axis_wrong() -> nbformat.NotebookNode:
-    """Wheel axes 0 0 1 (the robot rolls backwards), and an arm that counts q1 twice."""
-    fixes = replace_in_answer(LAB, "diff_drive_urdf", '<axis xyz="0 0 -1"/>', '<axis xyz="0 0 1"/>')
-    fixes.update(replace_in_answer(LAB, "arm_fk", "rotation_z(q2)", "rotation_z(q1 + q2)"))
-    return answered(LAB, **fixes)
 
 
 def joint_fixed() -> nbformat.NotebookNode:
@@ -67,7 +61,7 @@ def graded(
     tmp_path_factory: pytest.TempPathFactory, round_trip: tuple[dict, Path]
 ) -> tuple[dict, Path]:
     root = tmp_path_factory.mktemp("submissions")
-    submit(root, "axis_wrong", LAB, axis_wrong())
+    submit(root, "axis_wrong", LAB, lab04_axis_wrong())
     submit(root, "joint_fixed", LAB, joint_fixed())
     submit(root, "swapped", LAB, parent_child_swapped())
     out = tmp_path_factory.mktemp("out")

@@ -21,6 +21,7 @@ from tests.labtools import (
     grade_id,
     grade_lab,
     grade_rows,
+    lab05_swapped,
     replace_in_answer,
     status_and_score,
     submit,
@@ -58,10 +59,7 @@ class SquareDriver(Node):
 def fixtures() -> dict[str, object]:
     return {
         "right": answered(LAB),
-        "swapped": answered(
-            LAB,
-            **replace_in_answer(LAB, "wheel_speeds", "return left, right", "return right, left"),
-        ),
+        "swapped": lab05_swapped(),
         "diameter": answered(
             LAB,
             **replace_in_answer(LAB, "wheel_speeds", ") / wheel_radius", ") / (2 * wheel_radius)"),

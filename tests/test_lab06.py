@@ -4,9 +4,7 @@ from __future__ import annotations
 
 import html
 import re
-import shutil
 import sys
-import tempfile
 from collections import Counter
 from pathlib import Path
 
@@ -111,22 +109,20 @@ def test_the_class_launches_against_one_reference_build(graded: tuple[dict, Path
     assert used.pop().endswith(f"/shared/{LAB}/lab06_reference")
 
 
-def test_a_sandbox_given_the_shared_build_uses_it_and_builds_nothing(tmp_path: Path) -> None:
+def test_a_sandbox_given_the_shared_build_uses_it_and_builds_nothing(
+    tmp_path: Path, private: Path
+) -> None:
     """A kernel's ``reference_workspace()`` in a sandbox of a run that shares the
     reference build is that build, sourced from where it lies, read-only."""
     from autograder.judge import shared_env
-    from tests.test_sandbox import run_inside
+    from tests.sandboxtools import run_inside
 
     env = shared_env(LAB, tmp_path / "shared")
     code = (
         "from rosbook.labs import lab06\nws = lab06.reference_workspace()\n"
         "print('workspace', ws.root)\nprint('sourced', ws.environ()['AMENT_PREFIX_PATH'])"
     )
-    private = Path(tempfile.mkdtemp(prefix="rosbook-test-sandbox-"))  # nobody reaches it
-    try:
-        result = run_inside(code, tmp_path, private, **env)
-    finally:
-        shutil.rmtree(private, ignore_errors=True)
+    result = run_inside(code, tmp_path, private, **env)
     shared = f"{(tmp_path / 'shared').resolve()}/lab06_reference"
     assert result.returncode == 0, result.stdout
     assert f"workspace {shared}\n" in result.stdout

@@ -32,6 +32,7 @@ from rosbook.launch.launcher import (
 from rosbook.launch.substitutions import LaunchConfiguration, LaunchContext
 from rosbook.launch.workspace import Workspace, create_package
 from rosbook.runtime.session import Session
+from tests.launchtools import alive, read_until, start_launch
 
 #: Most tests here build a colcon workspace and start processes (`make test-fast` skips them).
 pytestmark = pytest.mark.slow
@@ -61,14 +62,6 @@ def env(tmp_path_factory: pytest.TempPathFactory) -> dict[str, str]:
     run = ws.build()
     assert run.ok, run.output
     return ws.environ()
-
-
-def alive(pid: int) -> bool:
-    try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return False
-    return Path(f"/proc/{pid}/stat").read_text().split()[2] != "Z"
 
 
 @pytest.fixture
@@ -289,46 +282,6 @@ def generate_launch_description():
              output='screen'),
     ])
 """
-
-
-#: Runs ``python -m rosbook.cli ARGV`` with SIGINT ignored, as a shell starts a
-#: background job (``cmd &`` in a script, ``nohup``): the disposition is inherited.
-SIGINT_IGNORED = (
-    "import os, signal, sys; signal.signal(signal.SIGINT, signal.SIG_IGN); "
-    "os.execv(sys.executable, [sys.executable, '-m', 'rosbook.cli', *sys.argv[1:]])"
-)
-
-
-def start_launch(
-    env: dict[str, str], *argv: str, sigint_ignored: bool = False
-) -> subprocess.Popen[str]:
-    """``ros2 launch ARGV`` in a terminal of its own (a Ctrl-C goes to its group)."""
-    prefix = ["-c", SIGINT_IGNORED] if sigint_ignored else ["-m", "rosbook.cli"]
-    return subprocess.Popen(
-        [sys.executable, *prefix, "launch", *argv],
-        env=env,
-        stdout=subprocess.PIPE,
-        stderr=subprocess.STDOUT,
-        text=True,
-        start_new_session=True,
-    )
-
-
-def read_until(
-    proc: subprocess.Popen[str], marker: str | None, lines: list[str], guard: float = 30.0
-) -> list[str]:
-    """Append ``proc``'s output lines to ``lines`` up to the first holding ``marker``, or
-    to its end if ``marker`` is None (the launcher is SIGKILLed if that takes ``guard``
-    s). Always the same reader: ``communicate`` after it would lose what it read ahead."""
-    assert proc.stdout is not None
-    watchdog = threading.Timer(guard, os.killpg, (proc.pid, signal.SIGKILL))
-    watchdog.start()
-    for line in proc.stdout:
-        lines.append(line)
-        if marker is not None and marker in line:
-            break
-    watchdog.cancel()
-    return lines
 
 
 def started_pids(text: str) -> list[int]:

@@ -27,7 +27,7 @@ from rosbook.launch.launcher import ESCALATED, Launch, LaunchError, include
 from rosbook.launch.workspace import Workspace, create_package
 from rosbook.runtime.params import get_parameter
 from rosbook.runtime.session import Session
-from tests.test_launch import alive, read_until, start_launch
+from tests.launchtools import alive, read_until, start_launch
 
 pytestmark = pytest.mark.slow
 

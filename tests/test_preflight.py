@@ -20,19 +20,20 @@ from autograder.config import ROOT
 from autograder.feedback import GRADER_ERROR, GRADER_ERROR_FEEDBACK
 from autograder.kernels import IpcKernelManager
 from autograder.worker import grader_failure
-from tests.labtools import answered, grade_rows, submit
-from tests.test_grading_runs import HANG, LAB, grade_cmd
+from tests.labtools import HANG, answered, grade_cmd, grade_rows, submit
 
 ACCUSING = "A cell must never end the interpreter"
 
 as_root = pytest.mark.skipif(os.geteuid() != 0, reason="the sandbox is another user only as root")
+
+LAB = "lab01_nodes_topics"
 
 
 def grade_from(
     checkout: Path, submissions: Path, out: Path, *extra: str, env: dict[str, str] | None = None
 ) -> subprocess.CompletedProcess[str]:
     """``python -m autograder grade`` run from ``checkout``."""
-    command = [*grade_cmd(submissions, out), *extra]
+    command = [*grade_cmd(submissions, out, LAB), *extra]
     return subprocess.run(
         command, capture_output=True, text=True, cwd=checkout, timeout=HANG, env=env
     )

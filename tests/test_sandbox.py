@@ -3,21 +3,19 @@
 from __future__ import annotations
 
 import os
-import shutil
 import signal
 import subprocess
 import sys
-import tempfile
 import time
 import uuid
-from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
 
 from autograder import sandbox
 from autograder.config import ROOT
-from rosbook.runtime.isolation import BASE_ENV, RUN_MARKER, child_env
+from rosbook.runtime.isolation import RUN_MARKER
+from tests.sandboxtools import ros_env, run_inside
 
 PUBLISH = """
 import rclpy
@@ -42,42 +40,6 @@ while not heard and time.monotonic() < deadline:
     rclpy.spin_once(node, timeout_sec=0.2)
 print(heard[0] if heard else 'nothing heard', flush=True)
 """
-
-
-@pytest.fixture
-def private() -> Iterator[Path]:
-    """A folder of the grader's for a sandbox (in /tmp: nobody can reach it when root)."""
-    folder = Path(tempfile.mkdtemp(prefix="rosbook-test-sandbox-"))
-    yield folder
-    shutil.rmtree(folder, ignore_errors=True)
-
-
-def ros_env(domain: int = 7) -> dict[str, str]:
-    return {**child_env(), **BASE_ENV, "ROS_DOMAIN_ID": str(domain)}
-
-
-def run_inside(
-    code: str,
-    tmp_path: Path,
-    private: Path,
-    limits: sandbox.Limits | None = None,
-    **env: str,
-) -> subprocess.CompletedProcess[str]:
-    seed = tmp_path / "lab"
-    seed.mkdir(exist_ok=True)
-    (seed / "given.txt").write_text("a file of the lab")
-    with sandbox.Network() as net:
-        launch = sandbox.prepare(
-            [sys.executable, "-c", code],
-            network=net,
-            private=private,
-            env={**ros_env(), **env},
-            seed=seed,
-            limits=limits or sandbox.Limits(),
-        )
-        proc, _ = sandbox.start(launch, stdout=subprocess.PIPE, stderr=subprocess.STDOUT)
-        out, _ = proc.communicate(timeout=300)
-    return subprocess.CompletedProcess(proc.args, proc.returncode, out.decode(), "")
 
 
 def test_sandbox_sees_its_home_and_read_only_code_and_no_grader_file(tmp_path, private) -> None:

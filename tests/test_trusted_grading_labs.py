@@ -22,11 +22,16 @@ import pytest
 from autograder.config import ROOT
 from tests.labtools import (
     ATTACKS,
+    LAB04,
+    LAB05,
     NEUTER,
     answered,
     extra_cell,
     feedback,
     grade,
+    lab02_volatile_map_publisher,
+    lab04_axis_wrong,
+    lab05_swapped,
     live_marked_processes,
     replace_in_answer,
     submit,
@@ -38,19 +43,17 @@ pytestmark = pytest.mark.slow
 
 def test_lab4_functions_are_judged_by_their_return_values(tmp_path: Path) -> None:
     """Lab 4's checks replaced in the kernel: the judge calls the functions itself."""
-    from tests.test_lab04 import LAB as LAB4
-    from tests.test_lab04 import axis_wrong
 
     root = tmp_path / "submissions"
     attack = "import rosbook.labs.lab04 as _m" + NEUTER.replace("'make_node'", "'load'")
-    notebook = axis_wrong()
+    notebook = lab04_axis_wrong()
     notebook.cells.insert(2, nbformat.v4.new_code_cell(attack))
-    submit(root, "neutered_urdf_checks", LAB4, notebook)
+    submit(root, "neutered_urdf_checks", LAB04, notebook)
     out = tmp_path / "out"
-    rows = grade(root, out, assignment_id=LAB4, workers=1, cell_timeout=60)
-    r = rows[("neutered_urdf_checks", LAB4)]
+    rows = grade(root, out, assignment_id=LAB04, workers=1, cell_timeout=60)
+    r = rows[("neutered_urdf_checks", LAB04)]
     assert (r["score"], r["status"]) == ("3", "tampered")  # only wheel_separation is right
-    page = feedback(out, "neutered_urdf_checks", LAB4)
+    page = feedback(out, "neutered_urdf_checks", LAB04)
     assert "Checks that passed only inside your notebook" in page and "test_arm_fk" in page
 
 
@@ -208,9 +211,7 @@ def honest_wrong(lab: str) -> nbformat.NotebookNode:
     """Lab 2: a VOLATILE map publisher (7 of 10). Lab 3: a service callback that returns
     nothing (8 of 10)."""
     if lab == "lab02_qos":
-        from tests.test_lab02 import volatile_map_publisher
-
-        return volatile_map_publisher()
+        return lab02_volatile_map_publisher()
     return answered(lab, **replace_in_answer(lab, "clock_server", "return response", "response"))
 
 
@@ -264,8 +265,6 @@ def test_an_attack_on_labs_2_and_3_earns_no_point_and_is_told_the_judges_finding
 
 # -- lab 5: the simulator runs in the judge ---------------------------------------------
 
-LAB5 = "lab05_diff_drive"
-
 #: Lab 5's attacks, each a cell added to the untouched release (its code earns 0).
 LAB5_ATTACKS = {
     "lab5_input_transformer": ATTACKS["input_transformer"],
@@ -285,15 +284,13 @@ def test_lab5_drives_are_judged_by_the_judges_own_simulator(tmp_path: Path) -> N
     """Lab 5's test cells skipped or its checks replaced in the kernel earn nothing; a
     submission whose driving works but whose kinematics are wrong keeps exactly the
     driving points under the same attack (the judge ran its simulator against the node)."""
-    from tests.test_lab05 import fixtures
-
-    swapped = extra_cell(fixtures()["swapped"], LAB5_TEST_CELLS_PASS)  # type: ignore[arg-type]
+    swapped = extra_cell(lab05_swapped(), LAB5_TEST_CELLS_PASS)
     # test_go_to_pose: its cell only calls checks, replaced
     rows, out = attacked_release(
-        tmp_path, LAB5, LAB5_ATTACKS, "test_go_to_pose", {"lab5_swapped_transformed": swapped}
+        tmp_path, LAB05, LAB5_ATTACKS, "test_go_to_pose", {"lab5_swapped_transformed": swapped}
     )
-    r = rows[("lab5_swapped_transformed", LAB5)]
+    r = rows[("lab5_swapped_transformed", LAB05)]
     assert (r["score"], r["status"]) == ("8", "tampered"), r
-    page = feedback(out, "lab5_swapped_transformed", LAB5)
+    page = feedback(out, "lab5_swapped_transformed", LAB05)
     # the cell that claimed a pass, and the judge's finding in the lab's words
     assert "test_wheel_speeds" in page and "left and right are swapped" in page
