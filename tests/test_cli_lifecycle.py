@@ -6,6 +6,7 @@ started as a process of their own. The commands run in this process, cold
 
 from __future__ import annotations
 
+import gc
 import threading
 from collections.abc import Iterator
 from typing import Any
@@ -15,6 +16,7 @@ import rclpy
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.lifecycle import LifecycleNode, State, TransitionCallbackReturn
 
+from rosbook.runtime import graph
 from tests.clitools import Run, fixture_process, run_ros2
 
 VISIBLE, HIDDEN = "/test_lifecycle_node", "/_hidden_test_lifecycle_node"
@@ -192,3 +194,10 @@ def test_set_says_transitioning_failed_on_stderr_and_exits_0_when_the_node_refus
         node.destroy_node()
         rclpy.try_shutdown(context=context)
         spinner.join(timeout=10)
+    # rclpy's lifecycle state machine and its node refer to each other: the node stays on
+    # the graph until that cycle is collected, and the next test file of this process
+    # (pytest-xdist) would find it there
+    del node, executor
+    gc.collect()
+    gone = graph.wait_for(lambda g: "/failing_driver" not in graph.node_names(g), timeout=60.0)
+    assert gone, "timeout: /failing_driver stayed on the graph after it was destroyed"
