@@ -4,6 +4,7 @@ live on a node's timer and recorded, from frames broadcast over real DDS on simu
 from __future__ import annotations
 
 import math
+import time
 
 import numpy as np
 import pytest
@@ -201,8 +202,12 @@ def test_the_live_view_redraws_on_its_nodes_timer_in_simulated_time(session: Ses
     buffer = tree.listener.buffer
     heard(sim, buffer, ["base_link", "laser_frame", "carrot"])
     draws = tree.draws
+    started = time.perf_counter()
     sim.run(1.0)
+    took = time.perf_counter() - started
     assert tree.draws - draws == 10, "a 0.1 s timer fires 10 times in 1 s of simulated time"
+    # at the robot's pace: 9 redraws after the first, each 0.1 s later on the wall clock too
+    assert took >= 0.9, f"1 s of simulated time went by in {took:.3f} s of wall time"
 
     # the last redraw put the frames where tf2 placed them then, in simulated time
     shown = tf_tree.final_frames(vis.window.commands)
@@ -219,6 +224,13 @@ def test_the_live_view_redraws_on_its_nodes_timer_in_simulated_time(session: Ses
     tree.stop()
     sim.run(1.0)
     assert tree.draws - draws == 10, "stopped: no more redraws"
+
+    # without realtime it redraws on the same timer, at whatever pace the simulator runs
+    fast = tf_tree.live(Node("fast_view"), viz.recording_visualizer(), realtime=False)
+    heard(sim, fast.listener.buffer, ["base_link"])
+    drawn = fast.draws
+    sim.run(2.0)
+    assert fast.draws - drawn == 20
 
 
 def test_a_recorded_tree_ends_where_tf2_says_with_the_robot_in_view(session: Session) -> None:

@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import math
 import re
+import time
 from collections.abc import Iterable, Mapping, Sequence
 from typing import Any
 
@@ -234,11 +235,32 @@ class FrameTree:
         self._show(self.state(buffer, Time() if time is None else time))
         return self.drawn
 
-    def follow(self, node: Node, buffer: Buffer, period: float = LIVE_PERIOD) -> Timer:
+    def follow(
+        self, node: Node, buffer: Buffer, period: float = LIVE_PERIOD, realtime: bool = True
+    ) -> Timer:
         """Redraw every ``period`` seconds of ``node``'s clock, on a timer of ``node``
-        (its executor must spin it, as the session does). :meth:`stop` ends it."""
+        (its executor must spin it, as the session does). :meth:`stop` ends it.
+
+        With ``realtime``, a redraw that comes sooner on the wall clock than on the
+        node's waits for the difference, so that a simulation many times faster than
+        real time moves the view at the robot's speed (as ``Twin.follow`` does); on wall
+        time there is nothing to wait for.
+        """
         self.stop()
-        timer = node.create_timer(period, lambda: self.draw(buffer))
+        last: list[tuple[int, float]] = []
+
+        def redraw() -> None:
+            self.draw(buffer)
+            if not realtime:
+                return
+            now, wall = node.get_clock().now().nanoseconds, time.perf_counter()
+            if last:
+                ahead = (now - last[0][0]) / 1e9 - (wall - last[0][1])
+                if 0 < ahead <= period:  # not across a jump of the clock
+                    time.sleep(ahead)
+            last[:] = [(now, time.perf_counter())]
+
+        timer = node.create_timer(period, redraw)
         self._timer = (node, timer)
         return timer
 
@@ -371,8 +393,10 @@ def live(
     buffer: Buffer | None = None,
     robot: Robot | None = None,
     period: float = LIVE_PERIOD,
+    realtime: bool = True,
 ) -> FrameTree:
-    """A live view of the tree, redrawn every ``period`` seconds of ``node``'s clock.
+    """A live view of the tree, redrawn every ``period`` seconds of ``node``'s clock, at
+    the pace of the wall clock with ``realtime`` (see :meth:`FrameTree.follow`).
 
     Without ``buffer``, ``node`` gets a ``Buffer`` and a ``TransformListener`` of its own.
     """
@@ -380,7 +404,7 @@ def live(
     if buffer is None:
         buffer = Buffer(node=node)
         tree.listener = TransformListener(buffer, node)
-    tree.follow(node, buffer, period)
+    tree.follow(node, buffer, period, realtime)
     return tree
 
 
