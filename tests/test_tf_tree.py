@@ -105,8 +105,15 @@ def heard(sim: Simulation, buffer: Buffer, frames: list[str]) -> None:
     ), f"timeout: {frames} not heard in {PATIENCE} simulated seconds"
 
 
-def yaw_of(pose: np.ndarray) -> float:
-    return math.atan2(pose[1, 0], pose[0, 0])
+def broadcasting() -> tuple[Simulation, Buffer]:
+    """A simulation with the mount and the mover broadcasting, and a buffer that has heard
+    every frame of theirs in odom."""
+    sim = Simulation(World(arena=None))
+    Mount()
+    Mover("mover", ("base_link", "carrot"))
+    buffer = listening()
+    heard(sim, buffer, ["base_link", "laser_frame", "carrot"])
+    return sim, buffer
 
 
 def expected_poses(seconds: float) -> dict[str, np.ndarray]:
@@ -123,11 +130,7 @@ def expected_poses(seconds: float) -> dict[str, np.ndarray]:
 
 
 def test_each_triad_sits_where_lookup_transform_puts_its_frame(session: Session) -> None:
-    sim = Simulation(World(arena=None))
-    Mount()
-    Mover("mover", ("base_link", "carrot"))
-    buffer = listening()
-    heard(sim, buffer, ["base_link", "laser_frame", "carrot"])
+    sim, buffer = broadcasting()
     sim.run(1.0)
     # a time between two stamps: tf2 interpolates, and the view shows what it says
     asked = Time(nanoseconds=round((sim.now - 0.51) * 1e9))
@@ -234,11 +237,7 @@ def test_the_live_view_redraws_on_its_nodes_timer_in_simulated_time(session: Ses
 
 
 def test_a_recorded_tree_ends_where_tf2_says_with_the_robot_in_view(session: Session) -> None:
-    sim = Simulation(World(arena=None))
-    Mount()
-    Mover("mover", ("base_link", "carrot"))
-    buffer = listening()
-    heard(sim, buffer, ["base_link", "laser_frame", "carrot"])
+    sim, buffer = broadcasting()
     sim.run(4.0)
     times = tf_tree.sample_times(buffer, "odom", seconds=3.0, fps=15)
     assert len(times) == 46 and (times[-1] - times[0]).nanoseconds == 3_000_000_000
