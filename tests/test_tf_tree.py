@@ -194,6 +194,12 @@ def test_a_frame_tf2_cannot_place_yet_is_hidden_not_an_error(session: Session) -
     assert keys[0] is False and keys[-1] is True and len(keys) == len(times), keys
     assert tf_tree.final_frames(recorded.scene().commands)["carrot"] is not None
 
+    # a frame the buffer forgot (as when simulated time jumps back) is hidden too
+    buffer.clear()
+    assert set(tree.draw(buffer)) <= {"odom"}  # the fixed frame itself, at most
+    forgotten = tf_tree.final_frames(tree.vis.window.commands)
+    assert forgotten["base_link"] is None and forgotten["carrot"] is None
+
 
 def test_the_live_view_redraws_on_its_nodes_timer_in_simulated_time(session: Session) -> None:
     sim = Simulation(World(arena=None))

@@ -165,10 +165,13 @@ class FrameTree:
         """What the view shows at ``time`` (``Time()``: tf2's latest for each frame).
 
         Each frame the buffer knows is placed where ``lookup_transform(fixed_frame,
-        frame, time)`` says; one that cannot be looked up is hidden. The line to a
+        frame, time)`` says; one that cannot be looked up is hidden, and so is one drawn
+        before that the buffer has forgotten (its clock jumped back). The line to a
         parent shows only where both ends are known.
         """
         parents = frame_parents(buffer)
+        for path in sorted(self._objects):
+            parents.setdefault(frame_name(path.split("/")[1]), None)
         found: dict[str, TransformStamped] = {}
         for frame in parents:
             try:
@@ -324,10 +327,12 @@ class FrameTree:
             if self.robot is not None
             else ""
         )
+        commands = getattr(self.vis.window, "commands", [])
+        moving = any(c["type"] == "set_animation" for c in commands)
         return (
-            f"Animated 3D view of {robot}tf2's frames {', '.join(frames)} in "
-            f"{self.fixed_frame}: each a triad (x red, y green, z blue) joined to its "
-            "parent by a line, on MeshCat's floor grid."
+            f"{'Animated 3D' if moving else '3D'} view of {robot}tf2's frames "
+            f"{', '.join(frames)} in {self.fixed_frame}: each a triad (x red, y green, "
+            "z blue) joined to its parent by a line, on MeshCat's floor grid."
         )
 
 
