@@ -3,11 +3,14 @@ live on a node's timer and recorded, from frames broadcast over real DDS on simu
 
 from __future__ import annotations
 
+import base64
 import math
+import re
 import time
 
 import numpy as np
 import pytest
+import umsgpack
 from geometry_msgs.msg import TransformStamped
 from rclpy.node import Node
 from rclpy.time import Time
@@ -278,3 +281,31 @@ def test_recording_nothing_is_refused_with_a_reason() -> None:
         tf_tree.sample_times(Buffer(), "odom", 1.0)
     with pytest.raises(ValueError, match="no times to record"):
         tf_tree.FrameTree().record(Buffer(), [])
+
+
+def test_a_live_server_holds_the_frames_where_tf2_put_them_and_stops(session: Session) -> None:
+    """The chapter's live view, with a real MeshCat server: what a browser opening the
+    view would get is the tree as last drawn; stopped, then closed, nothing hangs."""
+    sim = Simulation(World(arena=None))
+    Mount()
+    Mover("mover", ("base_link", "carrot"))
+    vis = viz.live_visualizer()
+    proc = vis.window.server_proc
+    try:
+        frames_live = tf_tree.live(Node("frame_view"), vis, "odom", robot=robots.diff_drive())
+        heard(sim, frames_live.listener.buffer, ["base_link", "laser_frame", "carrot"])
+        sim.run(0.5)
+        frames_live.stop()
+        served = [
+            umsgpack.unpackb(base64.b64decode(blob))
+            for blob in re.findall(r"octet-binary;base64,([^\"]+)", vis.static_html())
+        ]
+        shown = tf_tree.final_frames(served)
+        for frame, t in frames_live.drawn.items():
+            expected = tf_tree.transform_matrix(t)
+            expected[2, 3] += frames_live.robot.height
+            assert np.allclose(shown[frame], expected), frame
+        assert set(frames_live.drawn) == {"odom", "base_link", "laser_frame", "carrot"}
+    finally:
+        viz.close_live(vis)
+    assert proc.poll() is not None, "the MeshCat server process is still running"
