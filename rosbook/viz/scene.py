@@ -669,7 +669,7 @@ class RobotView:
 
     def include_pose(self, x: float, y: float, yaw: float) -> None:
         """Frame the view around the robot at (x, y, yaw) too (a pose it drives through)."""
-        self._extend(self.positions, planar_pose(x, y, yaw, self.height))
+        self.include_base(planar_pose(x, y, yaw, self.height))
 
     def include(self, bounds: Bounds | None) -> None:
         """Frame the view around ``bounds`` too (e.g. the world the robot drives in)."""
@@ -681,9 +681,26 @@ class RobotView:
         (x, y, yaw) is the root link's pose in the world, as a 2D simulator or odometry
         gives it (the ``odom`` -> ``base_link`` transform); the height is the view's.
         """
-        self.base = planar_pose(x, y, yaw, self.height)
+        self.place(planar_pose(x, y, yaw))
+
+    def placed(self, pose: np.ndarray) -> np.ndarray:
+        """Where the root link is drawn for ``pose`` (4x4, in the world): lifted by the
+        view's height, so that a pose on the floor (z = 0) stands the robot on it."""
+        lifted = np.array(pose, dtype=float)
+        lifted[2, 3] += self.height
+        return lifted
+
+    def place(self, pose: np.ndarray) -> None:
+        """Put the root link at ``pose`` (a 4x4 transform in the world, e.g. a tf2 lookup
+        of ``base_link`` in ``odom``), lifted by the view's height (:meth:`placed`)."""
+        self.base = self.placed(pose)
         self.root.set_transform(self.base)
         self._extend(self.positions, self.base)
+
+    def include_base(self, base: np.ndarray) -> None:
+        """Frame the view around the robot with its root link at ``base`` too (4x4, in the
+        scene: e.g. :meth:`placed`'s answer for a pose it goes through)."""
+        self._extend(self.positions, base)
 
     def animate(
         self,
@@ -720,6 +737,65 @@ class RobotView:
         if not isinstance(window, Recorder):
             raise TypeError("scene() needs a recording view: RobotView(robot) without vis")
         return Scene(window.commands, height=height, frame=framing(self.bounds, self.camera))
+
+
+def final_transforms(commands: Iterable[Mapping[str, Any]]) -> dict[str, np.ndarray]:
+    """Each scene-tree path's own (parent-relative) 4x4 transform at the end of a recorded
+    scene: its last ``set_transform``, overridden by the last keys of its animation's
+    position and quaternion tracks (``Scene.commands``, or those decoded from a page)."""
+    static: dict[str, np.ndarray] = {}
+    for command in commands:
+        if command["type"] == "set_transform":
+            static[command["path"]] = np.array(command["matrix"], dtype=float).reshape(4, 4).T
+    tracks = final_keys(commands)
+    for path in set(static) | set(tracks):
+        pose = static.get(path, np.eye(4)).copy()
+        animated = tracks.get(path, {})
+        if "quaternion" in animated:
+            pose[:3, :3] = rotation_of(animated["quaternion"])
+        if "position" in animated:
+            pose[:3, 3] = animated["position"]
+        static[path] = pose
+    return static
+
+
+def final_keys(commands: Iterable[Mapping[str, Any]]) -> dict[str, dict[str, Any]]:
+    """The last key of every animation track, by path and property (``position``,
+    ``quaternion``, ``visible``, ...); a later ``set_animation`` replaces an earlier one."""
+    tracks: dict[str, dict[str, Any]] = {}
+    for command in commands:
+        if command["type"] == "set_animation":
+            tracks = {}
+            for animated in command["animations"]:
+                for track in animated["clip"]["tracks"]:
+                    last = track["keys"][-1]["value"]
+                    tracks.setdefault(animated["path"], {})[track["name"].lstrip(".")] = last
+    return tracks
+
+
+def final_properties(commands: Iterable[Mapping[str, Any]], name: str) -> dict[str, Any]:
+    """Each path's property ``name`` (e.g. ``visible``) at the end of a recorded scene:
+    its last ``set_property``, overridden by the last key of its animation track."""
+    values: dict[str, Any] = {}
+    for command in commands:
+        if command["type"] == "set_property" and command["property"] == name:
+            values[command["path"]] = command["value"]
+    for path, keys in final_keys(commands).items():
+        if name in keys:
+            values[path] = keys[name]
+    return values
+
+
+def rotation_of(quaternion: Sequence[float]) -> np.ndarray:
+    """The 3x3 rotation of a three.js (x, y, z, w) quaternion."""
+    x, y, z, w = quaternion
+    return np.array(
+        [
+            [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+            [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+            [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
+        ]
+    )
 
 
 def show(robot: Robot, positions: Mapping[str, float] | None = None, **kwargs: Any) -> Scene:

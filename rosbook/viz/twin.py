@@ -33,7 +33,14 @@ from rosbook.robots.urdf import Robot
 from rosbook.sim.diff_drive import wheel_speeds
 from rosbook.sim.node import Simulation, yaw_of
 from rosbook.sim.physics import DiffDriveSim, Pose, RobotGeometry, TwinFrame, World
-from rosbook.viz.scene import Bounds, RobotView, Scene, planar_pose, points_bounds
+from rosbook.viz.scene import (
+    Bounds,
+    RobotView,
+    Scene,
+    final_transforms,
+    planar_pose,
+    points_bounds,
+)
 
 #: Frames per simulated second of a recorded twin: smooth enough, small enough for a page.
 DEFAULT_FPS = 15
@@ -267,52 +274,21 @@ def _js_quaternion(matrix: np.ndarray) -> list[float]:
     return [float(v) for v in js_quaternion(matrix)]
 
 
-def _matrix(position: Sequence[float], quaternion: Sequence[float]) -> np.ndarray:
-    """A 4x4 transform from a position and a three.js (x, y, z, w) quaternion."""
-    x, y, z, w = quaternion
-    pose = np.eye(4)
-    pose[:3, :3] = [
-        [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
-        [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
-        [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
-    ]
-    pose[:3, 3] = position
-    return pose
-
-
 def final_poses(commands: Iterable[Mapping[str, Any]], prefix: str) -> dict[str, np.ndarray]:
     """World pose of every link of robot ``prefix`` at the end of a recorded animation.
 
     Read from the MeshCat commands themselves (``Scene.commands``, or those decoded from a
-    built page): each link's last ``set_transform``, overridden by the last key of its
-    animation tracks, then placed by the robot's animated base transform.
+    built page): each link's last transform (``scene.final_transforms``: its last
+    ``set_transform``, overridden by the last key of its animation tracks), placed by the
+    robot's animated base transform.
     """
     root = f"/meshcat/{prefix}"
-    static: dict[str, np.ndarray] = {}
-    tracks: dict[str, dict[str, Sequence[float]]] = {}
-    for command in commands:
-        if command["type"] == "set_transform":
-            static[command["path"]] = np.array(command["matrix"], dtype=float).reshape(4, 4).T
-        elif command["type"] == "set_animation":
-            for animated in command["animations"]:
-                for track in animated["clip"]["tracks"]:
-                    last = track["keys"][-1]["value"]
-                    tracks.setdefault(animated["path"], {})[track["name"].lstrip(".")] = last
-    if root not in static:
+    local = final_transforms(commands)
+    if root not in local:
         raise ValueError(f"no robot {prefix!r} in these commands")
-
-    def local(path: str) -> np.ndarray:
-        pose = static.get(path, np.eye(4)).copy()
-        animated = tracks.get(path, {})
-        if "quaternion" in animated:
-            pose[:3, :3] = _matrix((0, 0, 0), animated["quaternion"])[:3, :3]
-        if "position" in animated:
-            pose[:3, 3] = animated["position"]
-        return pose
-
-    base = local(root)
-    links = {p.rsplit("/", 1)[1] for p in static if p.startswith(root + "/") and p.count("/") == 3}
-    return {link: base @ local(f"{root}/{link}") for link in sorted(links)}
+    base = local[root]
+    links = {p.rsplit("/", 1)[1] for p in local if p.startswith(root + "/") and p.count("/") == 3}
+    return {link: base @ local[f"{root}/{link}"] for link in sorted(links)}
 
 
 def axle_pose(poses: Mapping[str, np.ndarray]) -> Pose:
