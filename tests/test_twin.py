@@ -206,3 +206,8 @@ def test_a_run_replayed_from_its_last_seconds_is_framed_on_them(bot) -> None:
     walls = [c for c in decoded(tail) if c["type"] == "set_object" and "/world/" in c["path"]]
     assert len(walls) == 4, "the world is drawn all the same"
     assert tail.frame["radius"] < whole.frame["radius"]
+    # framed on the last second alone: not on where the robot stood when the twin was made
+    # (the origin, far from the run's end here)
+    last_second = [f for f in sim.twin_frames(0.1) if f.t >= sim.time - 1.0 - 1e-9]
+    middle = np.mean([(f.x, f.y) for f in last_second], axis=0)
+    assert math.dist(tail.frame["target"][:2], middle) < 0.3, (tail.frame, middle)

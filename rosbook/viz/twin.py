@@ -112,9 +112,12 @@ class Twin:
     ) -> None:
         self.robot = robot or robots.diff_drive()
         self.view = RobotView(self.robot, vis=vis, frames=frames, camera=camera)
+        #: What the view frames besides the robot's poses: the world, when framed.
+        self.framed_world: Bounds | None = None
         if world is not None:
             drawn = draw_world(self.view.vis, world)
             if frame_world:
+                self.framed_world = drawn
                 self.view.include(drawn)
 
     @property
@@ -123,8 +126,8 @@ class Twin:
 
     def show(self, frame: TwinFrame) -> None:
         """Put the robot where ``frame`` says: base pose on the floor, wheel angles."""
+        self.view.set_base_pose(frame.x, frame.y, frame.yaw)  # first: joints are framed there
         self.view.set_joints(joint_positions(frame))
-        self.view.set_base_pose(frame.x, frame.y, frame.yaw)
 
     def record(
         self, frames: Sequence[TwinFrame], fps: float = DEFAULT_FPS, repetitions: int = 1
@@ -133,10 +136,13 @@ class Twin:
 
         Only what moves is animated: the base's position and heading, and the wheels'
         rotation (a wheel's place on the base is fixed). The view is left at the first
-        frame, which is what a viewer shows before the animation plays.
+        frame, which is what a viewer shows before the animation plays, and framed on the
+        poses the animation passes through (and the world, when framed), not on where the
+        robot stood before.
         """
         if not frames:
             raise ValueError("no frames to record")
+        self.view.bounds = self.framed_world
         animation = Animation(default_framerate=fps)
         wheels = [self.robot.joint(j).child for j in robots.WHEEL_JOINTS]
         prefix = self.view.prefix
