@@ -22,7 +22,10 @@ from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
 
+import pytest
+
 from autograder.sandbox import staging_base
+from coursehub.hub import serve, stop
 
 
 def server_url(runtime: Path, server: subprocess.Popen, timeout: float) -> str:
@@ -55,6 +58,28 @@ def own_tmpdir() -> Iterator[Path]:
         yield folder
     finally:
         shutil.rmtree(folder, ignore_errors=True)
+
+
+@contextmanager
+def running_hub(
+    env: dict[str, str], state: Path, stop_s: float
+) -> Iterator[tuple[subprocess.Popen[bytes], str, Path]]:
+    """``make hub`` (``coursehub.hub.serve``) with ``env`` and a temporary folder of its
+    own (``own_tmpdir``), logging to ``state/hub.log``; yields the server, its URL and that
+    folder. A hub that never serves fails the test with its log; the hub is stopped after
+    (``stop_s``: a hang guard)."""
+    with own_tmpdir() as tmp:
+        log = (state / "hub.log").open("w")
+        try:
+            server, url = serve({**env, "TMPDIR": str(tmp)}, log)
+        except (RuntimeError, TimeoutError) as exc:
+            log.close()
+            pytest.fail(f"{exc}:\n" + Path(log.name).read_text())
+        try:
+            yield server, url, tmp
+        finally:
+            stop(server, stop_s)
+            log.close()
 
 
 def leftovers(tmp: Path, name: str) -> list[str]:

@@ -35,7 +35,7 @@ from coursehub.hub import COURSE, add, serve, stop
 from rosbook.runtime.isolation import child_env
 from tests.jupyterlab_ui import CELL_S, START_S, cell_index, run_cell, terminal, wait_for_notebook
 from tests.labtools import answered, assert_counted_from_zero
-from tests.servers import leftovers, own_tmpdir, still_running
+from tests.servers import leftovers, running_hub, still_running
 
 T = TypeVar("T")
 
@@ -62,28 +62,14 @@ def hub(tmp_path_factory: pytest.TempPathFactory) -> Iterator[dict[str, Any]]:
         )
         nbformat.write(notebook, home / f"{LAB}.ipynb")
         nbformat.write(answered(LAB), home / "answers.ipynb")  # what they will submit
-    with own_tmpdir() as tmp:
-        env = child_env()
-        env.update(
-            ROSBOOK_HUB_DIR=str(state),
-            ROSBOOK_HUB_LAB_ARGS="--LabApp.expose_app_in_browser=True",
-            ROS_DOMAIN_ID="0",  # every student in one domain: only their networks part them
-            TMPDIR=str(tmp),
-        )
-        log = (state / "hub.log").open("w")
-        try:
-            server, url = serve(env, log)
-        except (RuntimeError, TimeoutError) as exc:
-            log.close()
-            pytest.fail(f"{exc}:\n" + Path(log.name).read_text())
-        try:
-            yield {
-                "url": url, "state": state, "server": server, "passwords": passwords,
-                "tmp": tmp,
-            }  # fmt: skip
-        finally:
-            stop(server, STOP_S)
-            log.close()
+    env = child_env()
+    env.update(
+        ROSBOOK_HUB_DIR=str(state),
+        ROSBOOK_HUB_LAB_ARGS="--LabApp.expose_app_in_browser=True",
+        ROS_DOMAIN_ID="0",  # every student in one domain: only their networks part them
+    )
+    with running_hub(env, state, STOP_S) as (server, url, tmp):
+        yield {"url": url, "state": state, "server": server, "passwords": passwords, "tmp": tmp}
 
 
 def _log_in(browser: Any, url: str, name: str, password: str, then: str = "") -> Any:

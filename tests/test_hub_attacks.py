@@ -37,7 +37,7 @@ from autograder.sandbox import HOME, NOBODY, Network, enter_argv, prepare, proce
 from autograder.worker import MAX_NOTEBOOK_BYTES
 from coursehub import hub, relay, safefs
 from rosbook.runtime.isolation import child_env
-from tests.servers import leftovers, own_tmpdir, still_running
+from tests.servers import leftovers, running_hub, still_running
 
 LAB = "lab01_nodes_topics"
 STUDENTS = ("ada", "ben")
@@ -386,24 +386,14 @@ def attacked(tmp_path_factory: pytest.TempPathFactory) -> Iterator[dict[str, Any
         {HOME: home, hub.RUN: run, hub.EXCHANGE: state / "exchange" / "ada"},
         script,
     )
-    with own_tmpdir() as tmp:
-        env = child_env()
-        env.update(ROSBOOK_HUB_DIR=str(state), ROSBOOK_HUB_QUOTA_MB=str(QUOTA_MB), TMPDIR=str(tmp))
-        log = (state / "hub.log").open("w")
-        try:
-            server, url = hub.serve(env, log)
-        except (RuntimeError, TimeoutError) as exc:
-            log.close()
-            pytest.fail(f"{exc}:\n" + Path(log.name).read_text())
-        try:
-            yield {
-                "url": url, "state": state, "server": server, "passwords": passwords,
-                "targets": targets, "labconfig": labconfig, "made": made, "tmp": tmp,
-                "log": Path(log.name),
-            }  # fmt: skip
-        finally:
-            hub.stop(server, START_S)
-            log.close()
+    env = child_env()
+    env.update(ROSBOOK_HUB_DIR=str(state), ROSBOOK_HUB_QUOTA_MB=str(QUOTA_MB))
+    with running_hub(env, state, START_S) as (server, url, tmp):
+        yield {
+            "url": url, "state": state, "server": server, "passwords": passwords,
+            "targets": targets, "labconfig": labconfig, "made": made, "tmp": tmp,
+            "log": state / "hub.log",
+        }  # fmt: skip
 
 
 @needs_root
